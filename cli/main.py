@@ -1,0 +1,74 @@
+"""Entry point of the ``phri`` console script.
+
+Sub-commands live in their own modules and are imported only when they run,
+so that ``phri --help`` stays fast (no numpy, pandas or matplotlib at start-up).
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import click
+
+from ._common import PhriGroup
+
+_COMMANDS = {
+    "simulate": ("phri_cli.simulate", "simulate"),
+    "fit-stiffness": ("phri_cli.fit_stiffness", "fit_stiffness"),
+    "compare": ("phri_cli.compare", "compare"),
+}
+
+_SHORT_HELP = {
+    "simulate": "Wrench log -> contact force of every cuff element [N].",
+    "fit-stiffness": "Indenter recordings -> tissue stiffness map [N/m].",
+    "compare": "RMSE of rigid- and compliant-arm predictions against a sensorized cuff.",
+}
+
+
+class LazyGroup(PhriGroup):
+    def list_commands(self, ctx):
+        return list(_COMMANDS)
+
+    def get_command(self, ctx, name):
+        if name not in _COMMANDS:
+            return None
+        module, attr = _COMMANDS[name]
+        try:
+            return getattr(importlib.import_module(module), attr)
+        except ModuleNotFoundError as exc:
+            if exc.name == module:
+                return None
+            raise
+
+    def format_commands(self, ctx, formatter):
+        rows = [(name, _SHORT_HELP[name]) for name in _COMMANDS]
+        with formatter.section("Commands"):
+            formatter.write_dl(rows)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="phri-spring", prog_name="phri")
+def phri():
+    """phri-spring: distributed cuff-arm loads from a six-axis load cell.
+
+    Models an exoskeleton cuff on a limb as a network of springs (bone -
+    tissue - skin - cuff - robot) with strap preload and contacts that can
+    lift off, and predicts the normal force [N] on every cuff element.
+
+    \b
+    Examples:
+      phri simulate configs/harmony_upper_arm.yaml examples/wrench_log.csv -o forces.csv
+      phri fit-stiffness examples/indenter -o stiffness.csv --plots figs/
+      phri compare configs/harmony_upper_arm.yaml examples/experiment/manifest.yaml -o cmp/
+
+    Add --traceback to any command to see the Python traceback of an error.
+    Exit status: 0 success, 1 bad data or failed run, 2 bad usage.
+    """
+
+
+def main(argv=None):
+    phri.main(args=argv, prog_name="phri")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,173 @@
+"""The assembled spring network: plain arrays the solver works on."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .geometry import CuffGeometry, element_jacobians
+from .preload import handles_preload, hoop_preload
+from .springs import (LinearContact, element_stiffness, indenter_to_element,
+                      shear_ratio_from_poisson, shear_stiffness_matrix)
+
+__all__ = ["SpringModel", "build_model", "tissue_element_stiffness"]
+
+
+@dataclass(frozen=True, eq=False)
+class SpringModel:
+    """A cuff-arm spring network ready to solve (SPEC sections 1-4).
+
+    Attributes
+    ----------
+    geometry : CuffGeometry
+    arm : str
+        ``compliant`` or ``rigid``.
+    k : ndarray, shape (n,)
+        Normal stiffness k_e [N/m].
+    k_shear : ndarray, shape (n,)
+        Tangential stiffness k_s,e [N/m].
+    K_s : ndarray, shape (6, 6)
+        Shear stiffness matrix of the cuff displacement.
+    delta0 : ndarray, shape (n,)
+        Initial compression [m] (hoop preload), zero otherwise.
+    f0 : ndarray, shape (n,)
+        Initial normal force [N] (hoop preload), zero otherwise.
+    W_pre : ndarray, shape (6,)
+        Constant wrench of the strap on the cuff [N, N*m].
+    strap_model : str
+        ``hoop`` or ``handles``.
+    pain_threshold_kpa : float
+        Pressure pain threshold [kPa].
+    """
+
+    geometry: CuffGeometry
+    arm: str
+    k: np.ndarray
+    k_shear: np.ndarray
+    K_s: np.ndarray
+    delta0: np.ndarray
+    f0: np.ndarray
+    W_pre: np.ndarray
+    strap_model: str = "hoop"
+    pain_threshold_kpa: float = 120.0
+    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def n(self) -> int:
+        return self.geometry.n
+
+    @property
+    def labels(self) -> tuple:
+        return self.geometry.labels
+
+    @property
+    def b(self) -> np.ndarray:
+        return self.geometry.b
+
+    @property
+    def areas(self) -> np.ndarray:
+        return self.geometry.areas
+
+    @property
+    def law(self) -> LinearContact:
+        return LinearContact(self.k)
+
+    def rhs_offset(self, active: np.ndarray) -> np.ndarray:
+        """sum over inactive elements of f0_e b_e, shape (..., 6) (hoop), zeros otherwise."""
+        return (~np.asarray(active, dtype=bool) * self.f0) @ self.b
+
+
+def tissue_element_stiffness(values, areas, basis: str = "indenter",
+                             indenter_diameter: float = 0.009) -> np.ndarray:
+    """Element tissue stiffness k_t,e [N/m] from configured values.
+
+    ``basis='indenter'`` converts indenter stiffness by area; ``'element'`` uses the values as given.
+    """
+    values = np.asarray(values, dtype=float)
+    if basis == "indenter":
+        return indenter_to_element(values, areas, indenter_diameter)
+    if basis == "element":
+        return values.copy()
+    raise ValueError(f"basis: expected 'indenter' or 'element', got {basis!r}")
+
+
+def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "compliant",
+                shear_ratio: float | None = None, poisson_ratio: float = 0.45,
+                strap_tension: float = 15.0, strap_model: str = "hoop",
+                handle_angles_deg=None, handle_axial_position: float | None = None,
+                pain_threshold_kpa: float = 120.0) -> SpringModel:
+    """Assemble the spring network of SPEC sections 2 and 3.
+
+    Parameters
+    ----------
+    geometry : CuffGeometry
+    k_tissue : array_like, shape (n,)
+        Element tissue stiffness k_t,e [N/m] (already converted from the indenter basis).
+    k_cuff : array_like, shape (n,)
+        Cuff stiffness k_c,e [N/m]; ``inf`` allowed.
+    arm : {'compliant', 'rigid'}
+    shear_ratio : float, optional
+        eta = k_s,e / k_e [-]; default 1 / (2 (1 + poisson_ratio)).
+    poisson_ratio : float
+        Tissue Poisson ratio nu [-].
+    strap_tension : float
+        T [N].
+    strap_model : {'hoop', 'handles'}
+    handle_angles_deg : (float, float), optional
+        Handle angles [deg] (``handles`` only); default the cuff's edges.
+    handle_axial_position : float, optional
+        Handles' axial position [m]; default the mean row position.
+    pain_threshold_kpa : float
+        Pressure pain threshold [kPa].
+
+    Raises
+    ------
+    ValueError
+        If an element is infinitely stiff, a stiffness is not positive, or K_s is singular.
+    """
+    n = geometry.n
+    k_t = np.broadcast_to(np.asarray(k_tissue, dtype=float), (n,))
+    k_c = np.broadcast_to(np.asarray(k_cuff, dtype=float), (n,))
+    k = element_stiffness(k_t, k_c, arm)
+    bad = ~np.isfinite(k) | ~(k > 0)
+    if bad.any():
+        first = geometry.labels[int(np.argmax(bad))]
+        raise ValueError(f"element {first} has stiffness {k[bad][0]!r} N/m in the {arm} model; "
+                         "expected a positive finite value (an infinitely stiff element has no "
+                         "defined contact force)")
+    eta = shear_ratio_from_poisson(poisson_ratio) if shear_ratio is None else float(shear_ratio)
+    if not eta > 0:
+        raise ValueError(f"shear_ratio: expected > 0, got {eta}")
+    k_s = eta * k
+    B = element_jacobians(geometry.points)
+    K_s = shear_stiffness_matrix(k_s, B, geometry.normals)
+    eig = np.linalg.eigvalsh(0.5 * (K_s + K_s.T))
+    if not eig[0] > 1e-9 * max(eig[-1], 1e-300):
+        raise ValueError("the shear stiffness matrix K_s is singular for this geometry "
+                         "(e.g. a single angular location): the cuff is not held in every "
+                         "direction")
+
+    if strap_model == "hoop":
+        row_w = geometry.row_width[:: geometry.n_angles]
+        f0 = hoop_preload(strap_tension, geometry.span, geometry.row_width, row_w)
+        delta0 = f0 / k
+        W_pre = f0 @ geometry.b
+    elif strap_model == "handles":
+        f0 = np.zeros(n)
+        delta0 = np.zeros(n)
+        if handle_angles_deg is None:
+            th = np.degrees(geometry.theta[: geometry.n_angles])
+            half = np.degrees(geometry.span[0]) / 2.0
+            handle_angles_deg = (th[0] - half, th[-1] + half)
+        ax = float(np.mean(geometry.x[:: geometry.n_angles])) if handle_axial_position is None \
+            else float(handle_axial_position)
+        radius = float(np.mean(geometry.radius[:: geometry.n_angles]))
+        ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
+        W_pre = handles_preload(strap_tension, ta, tb, ax, radius)
+    else:
+        raise ValueError(f"strap model: expected 'hoop' or 'handles', got {strap_model!r}")
+
+    return SpringModel(geometry=geometry, arm=arm, k=k, k_shear=k_s, K_s=K_s, delta0=delta0,
+                       f0=f0, W_pre=W_pre, strap_model=strap_model,
+                       pain_threshold_kpa=float(pain_threshold_kpa))

@@ -1,0 +1,57 @@
+"""Strap pretension (SPEC section 3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .geometry import tangent
+
+__all__ = ["hoop_preload", "handles_preload"]
+
+
+def hoop_preload(tension: float, span, row_width, n_rows_widths) -> np.ndarray:
+    """Initial normal force of each element under the ``hoop`` strap model [N].
+
+    f0_e = T * span_e * w_r / sum_r(w_r)
+
+    Parameters
+    ----------
+    tension : float
+        Strap tension T [N].
+    span : array_like, shape (n,)
+        Angular width of each element [rad].
+    row_width : array_like, shape (n,)
+        Axial width w_r of each element's row [m].
+    n_rows_widths : array_like, shape (n_rows,)
+        The axial widths of all rows [m] (their sum normalises the split).
+    """
+    total = float(np.sum(n_rows_widths))
+    return float(tension) * np.asarray(span, dtype=float) * np.asarray(row_width, dtype=float) / total
+
+
+def handles_preload(tension: float, theta_a: float, theta_b: float, axial_position: float,
+                    radius: float) -> np.ndarray:
+    """Constant wrench of a strap pulling at two handles (the paper's FEA setup).
+
+    W_pre = T * (t_b - t_a, p_b x t_b - p_a x t_a)
+
+    Parameters
+    ----------
+    tension : float
+        Strap tension T [N].
+    theta_a, theta_b : float
+        Handle angles [rad].
+    axial_position : float
+        Axial position of the handles [m].
+    radius : float
+        Radius of the handles [m].
+
+    Returns
+    -------
+    ndarray, shape (6,)
+        Wrench [N, N*m] about the cuff origin, in the cuff frame.
+    """
+    t_a, t_b = tangent(theta_a), tangent(theta_b)
+    p_a = np.array([axial_position, radius * np.cos(theta_a), radius * np.sin(theta_a)])
+    p_b = np.array([axial_position, radius * np.cos(theta_b), radius * np.sin(theta_b)])
+    return float(tension) * np.concatenate([t_b - t_a, np.cross(p_b, t_b) - np.cross(p_a, t_a)])

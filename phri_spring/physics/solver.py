@@ -1,0 +1,372 @@
+"""Equilibrium of the cuff on the arm (SPEC section 4).
+
+The cuff displacement u* is the unique minimiser of the strictly convex,
+piecewise quadratic energy
+
+    Pi(u) = sum_e 1/2 k_e [delta0_e + b_e . u]_+^2 + 1/2 u^T K_s u - (W + W_pre) . u
+
+Method
+------
+For a fixed active set S (elements in contact) the minimiser solves the 6x6
+system (sum_{e in S} k_e b_e b_e^T + K_s) u = W + W_pre - sum_{e in S} k_e delta0_e b_e.
+The fast path is the plain "solve, update S, re-solve" loop, vectorised over
+samples: samples that share an active set share one cached factorisation, and
+each sample starts from the contact set of a neighbouring sample (warm start).
+The plain loop is a semismooth Newton method with full steps; it usually
+settles in 1 to 3 solves but is not guaranteed to terminate, so samples that
+have not settled after :data:`PLAIN_ITERATIONS` solves continue with the same
+Newton direction safeguarded by an exact line search on Pi, which makes it a
+globally convergent descent method. A sample is converged when its active set
+is consistent with its displacement (the KKT conditions hold); samples that do
+not converge within ``max_iterations`` are flagged and their forces are NaN.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import SpringModel
+
+__all__ = ["Solution", "solve", "Solver", "compression", "normal_forces", "shear_forces",
+           "energy", "equilibrium_residual", "PLAIN_ITERATIONS"]
+
+#: plain (undamped) active-set iterations before the line-search safeguard takes over
+PLAIN_ITERATIONS = 8
+#: relative tolerance on the compression sign when checking an active set
+_SET_RTOL = 1e-12
+#: samples per internal block (bounds the (samples x elements) temporaries)
+_BLOCK_ENTRIES = 1 << 21
+#: stride of the neighbour warm start
+_WARM_STRIDE = 16
+_CACHE_MAX = 1 << 14
+
+
+@dataclass
+class Solution:
+    """Result of :func:`solve` for m samples and n elements.
+
+    Attributes
+    ----------
+    u : ndarray, shape (m, 6)
+        Cuff displacement (t [m], w [rad]).
+    forces : ndarray, shape (m, n)
+        Normal force on the arm f_e [N] (NaN where not converged).
+    contact : ndarray of bool, shape (m, n)
+        Element in contact (compression > 0).
+    iterations : ndarray of int, shape (m,)
+        Linear solves the sample needed.
+    converged : ndarray of bool, shape (m,)
+    """
+
+    u: np.ndarray
+    forces: np.ndarray
+    contact: np.ndarray
+    iterations: np.ndarray
+    converged: np.ndarray
+
+
+def compression(model: SpringModel, u) -> np.ndarray:
+    """Compression delta0_e + b_e . u of every element [m], shape (..., n)."""
+    return model.delta0 + np.asarray(u, dtype=float) @ model.b.T
+
+
+def normal_forces(model: SpringModel, u) -> np.ndarray:
+    """f_e = k_e [delta0_e + b_e . u]_+ [N], shape (..., n)."""
+    return model.k * np.maximum(compression(model, u), 0.0)
+
+
+def shear_forces(model: SpringModel, u) -> np.ndarray:
+    """Shear force on the arm s_e = k_s,e (I3 - n_e n_e^T) B_e u [N], shape (..., n, 3)."""
+    u = np.asarray(u, dtype=float)
+    g = model.geometry
+    d = u[..., None, :3] + np.cross(u[..., None, 3:], g.points)      # d_e = t + w x p_e
+    dn = np.sum(d * g.normals, axis=-1, keepdims=True)
+    return model.k_shear[:, None] * (d - dn * g.normals)
+
+
+def energy(model: SpringModel, u, wrench) -> np.ndarray:
+    """Pi(u) [J] for displacement(s) u and applied wrench(es) W."""
+    u = np.asarray(u, dtype=float)
+    gp = np.maximum(compression(model, u), 0.0)
+    r = np.asarray(wrench, dtype=float) + model.W_pre
+    return (0.5 * np.sum(model.k * gp * gp, axis=-1)
+            + 0.5 * np.einsum("...i,ij,...j->...", u, model.K_s, u)
+            - np.sum(r * u, axis=-1))
+
+
+def equilibrium_residual(model: SpringModel, u, wrench) -> np.ndarray:
+    """sum_e f_e b_e + K_s u - (W + W_pre), shape (..., 6): zero at equilibrium."""
+    u = np.asarray(u, dtype=float)
+    return normal_forces(model, u) @ model.b + u @ model.K_s.T - (np.asarray(wrench) + model.W_pre)
+
+
+# --------------------------------------------------------------------------- active sets
+def _set_keys(S: np.ndarray) -> np.ndarray:
+    """One hashable, sortable key per row of a boolean matrix."""
+    packed = np.packbits(S, axis=1, bitorder="little")
+    nb = packed.shape[1]
+    if nb <= 8:
+        if nb < 8:
+            packed = np.pad(packed, ((0, 0), (0, 8 - nb)))
+        return np.ascontiguousarray(packed).view("<u8").ravel()
+    return np.ascontiguousarray(packed).view(np.dtype((np.void, nb))).ravel()
+
+
+def _factors(model: SpringModel, key, S_row: np.ndarray):
+    """(H_S^-1, c_S) for active set S, cached on the model."""
+    cache = model._cache
+    hk = key.item() if isinstance(key, np.generic) else key
+    hit = cache.get(hk)
+    if hit is None:
+        kS = model.k * S_row
+        H = model.K_s + (model.b.T * kS) @ model.b
+        M = np.linalg.inv(H)
+        c = -(kS * model.delta0) @ model.b
+        if len(cache) >= _CACHE_MAX:
+            cache.clear()
+        hit = cache[hk] = (M, c)
+    return hit
+
+
+def _outer_bb(model: SpringModel) -> np.ndarray:
+    bb = model._cache.get("__bb__")
+    if bb is None:
+        bb = model._cache["__bb__"] = (model.b[:, :, None] * model.b[:, None, :]).reshape(-1, 36)
+    return bb
+
+
+def _solve_sets(model: SpringModel, S: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """u for every row of r with the active set in the same row of S."""
+    keys = _set_keys(S)
+    m = len(keys)
+    if m == 0:
+        return np.empty((0, 6))
+    if np.all(keys == keys[0]):
+        M, c = _factors(model, keys[0], S[0])
+        return (r + c) @ M.T
+    uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+    G = len(uniq)
+    if G <= 64 or 8 * G <= m:
+        out = np.empty((m, 6))
+        order = np.argsort(inv, kind="stable")
+        bounds = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=G))])
+        for j in range(G):
+            idx = order[bounds[j]:bounds[j + 1]]
+            M, c = _factors(model, uniq[j], S[first[j]])
+            out[idx] = (r[idx] + c) @ M.T
+        return out
+    # many distinct sets: assemble and solve every 6x6 system at once
+    kS = S * model.k
+    H = model.K_s + (kS @ _outer_bb(model)).reshape(m, 6, 6)
+    rhs = r - (kS * model.delta0) @ model.b
+    return np.linalg.solve(H, rhs[..., None])[..., 0]
+
+
+def _consistent(S: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """Rows whose active set S agrees with the sign of the compression g."""
+    tol = _SET_RTOL * np.max(np.abs(g), axis=-1, keepdims=True)
+    wrong = (S & (g < -tol)) | (~S & (g > tol))
+    return ~wrong.any(axis=-1)
+
+
+# --------------------------------------------------------------------------- safeguard
+def _exact_step(k, g, h, a0, q) -> float:
+    """Exact minimiser alpha >= 0 of Pi(u + alpha d).
+
+    phi'(alpha) = sum_e k_e [g_e + alpha h_e]_+ h_e + a0 + alpha q is piecewise
+    linear and non-decreasing, with phi'(0) < 0 along a descent direction.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bp = -g / h
+    bp = np.sort(bp[(h != 0) & (bp > 0) & np.isfinite(bp)])
+    edges = np.concatenate([[0.0], bp])
+    # slope pieces on each segment [edges[i], edges[i+1]]: active set at the segment's start+
+    for i in range(len(edges)):
+        lo = edges[i]
+        hi = edges[i + 1] if i + 1 < len(edges) else np.inf
+        probe = lo + (0.5 * (hi - lo) if np.isfinite(hi) else 1.0 + lo)
+        act = (g + probe * h) > 0
+        A = np.sum(k[act] * g[act] * h[act]) + a0
+        C = np.sum(k[act] * h[act] ** 2) + q
+        alpha = -A / C
+        if alpha <= hi:
+            return float(max(alpha, lo))
+    return float(edges[-1])  # pragma: no cover - unreachable for q > 0
+
+
+def _newton_safeguarded(model: SpringModel, r: np.ndarray, u: np.ndarray, budget: int):
+    """Globalised semismooth Newton with exact line search for one sample."""
+    k, b, d0, Ks = model.k, model.b, model.delta0, model.K_s
+    its = 0
+    while its < budget:
+        g = d0 + b @ u
+        S = g > 0
+        H = Ks + (b.T * (k * S)) @ b
+        grad = b.T @ (k * np.maximum(g, 0.0)) + Ks @ u - r
+        d = -np.linalg.solve(H, grad)
+        its += 1
+        u_full = u + d
+        g_full = d0 + b @ u_full
+        if _consistent(S[None], g_full[None])[0]:
+            return u_full, its, True
+        if not np.any(np.abs(d) > 1e-15 * (np.abs(u) + 1e-12)):
+            return u_full, its, True
+        alpha = _exact_step(k, g, b @ d, float((Ks @ u - r) @ d), float(d @ Ks @ d))
+        u = u + alpha * d
+    g = d0 + b @ u
+    return u, its, bool(_consistent((g > 0)[None], g[None])[0])
+
+
+# --------------------------------------------------------------------------- batch solver
+def _solve_block(model: SpringModel, r: np.ndarray, S: np.ndarray, max_iterations: int):
+    m = len(r)
+    u = np.zeros((m, 6))
+    its = np.zeros(m, dtype=np.int64)
+    conv = np.zeros(m, dtype=bool)
+    todo = np.arange(m)
+    S = S.copy()
+    for _ in range(min(PLAIN_ITERATIONS, max_iterations)):
+        St = S[todo]
+        ut = _solve_sets(model, St, r[todo])
+        its[todo] += 1
+        u[todo] = ut
+        g = model.delta0 + ut @ model.b.T
+        ok = _consistent(St, g)
+        conv[todo[ok]] = True
+        todo = todo[~ok]
+        if todo.size == 0:
+            break
+        S[todo] = g[~ok] > 0
+    for i in todo:
+        ui, n_it, ok = _newton_safeguarded(model, r[i], u[i], max_iterations - int(its[i]))
+        u[i] = ui
+        its[i] += n_it
+        conv[i] = ok
+    return u, its, conv
+
+
+def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: bool = True,
+          initial_active=None) -> Solution:
+    """Solve the equilibrium for every sample of a wrench log.
+
+    Parameters
+    ----------
+    model : SpringModel
+    wrench : array_like, shape (m, 6) or (6,)
+        Wrench W applied by the robot to the cuff, cuff frame, about the cuff
+        origin: (Fx, Fy, Fz [N], Mx, My, Mz [N*m]).
+    max_iterations : int
+        Most linear solves per sample (>= 1).
+    warm_start : bool
+        Start each sample from the contact set of a neighbouring sample (solved
+        first on a strided subset of the log) instead of full contact.
+    initial_active : array_like of bool, shape (n,) or (m, n), optional
+        Initial contact set(s); overrides ``warm_start``.
+
+    Returns
+    -------
+    Solution
+        Arrays with a leading sample axis (dropped for a single (6,) wrench).
+    """
+    W = np.asarray(wrench, dtype=float)
+    single = W.ndim == 1
+    W = np.atleast_2d(W)
+    if W.ndim != 2 or W.shape[1] != 6:
+        raise ValueError(f"wrench: expected shape (m, 6) or (6,), got {np.shape(wrench)}")
+    if not np.all(np.isfinite(W)):
+        raise ValueError("wrench: expected finite numbers, got NaN or inf")
+    if int(max_iterations) < 1:
+        raise ValueError("max_iterations: expected >= 1")
+    max_iterations = int(max_iterations)
+    m, n = len(W), model.n
+    r = W + model.W_pre
+
+    u = np.empty((m, 6))
+    its = np.empty(m, dtype=np.int64)
+    conv = np.empty(m, dtype=bool)
+    block = max(256, _BLOCK_ENTRIES // max(n, 1))
+    carry = None  # warm start across blocks: the last solved sample's contact set
+    for s in range(0, m, block):
+        e = min(m, s + block)
+        rb = r[s:e]
+        mb = e - s
+        if initial_active is not None:
+            S0 = np.broadcast_to(np.asarray(initial_active, dtype=bool), (m, n))[s:e]
+        elif warm_start and mb >= 4 * _WARM_STRIDE:
+            idx = np.arange(0, mb, _WARM_STRIDE)
+            Sguess = np.ones((len(idx), n), dtype=bool) if carry is None \
+                else np.broadcast_to(carry, (len(idx), n))
+            us, its_s, conv_s = _solve_block(model, rb[idx], Sguess, max_iterations)
+            Ssub = (model.delta0 + us @ model.b.T) > 0
+            S0 = np.repeat(Ssub, _WARM_STRIDE, axis=0)[:mb]
+        else:
+            S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
+        ub, itb, cb = _solve_block(model, rb, S0, max_iterations)
+        u[s:e], its[s:e], conv[s:e] = ub, itb, cb
+        carry = (model.delta0 + ub[-1] @ model.b.T) > 0
+
+    g = model.delta0 + u @ model.b.T
+    forces = model.k * np.maximum(g, 0.0)
+    if not conv.all():
+        forces[~conv] = np.nan
+    sol = Solution(u=u, forces=forces, contact=g > 0, iterations=its, converged=conv)
+    if single:
+        sol = Solution(u=u[0], forces=forces[0], contact=sol.contact[0], iterations=its[0],
+                       converged=conv[0])
+    return sol
+
+
+class Solver:
+    """Single-sample solver for control loops, warm-started from the previous call.
+
+    >>> solver = Solver(model)                         # doctest: +SKIP
+    >>> f = solver.forces(np.array([0, 0, 20.0, 0, 0, 0]))   # doctest: +SKIP
+
+    Parameters
+    ----------
+    model : SpringModel
+    max_iterations : int
+        Most linear solves per call.
+    """
+
+    def __init__(self, model: SpringModel, max_iterations: int = 100):
+        self.model = model
+        self.max_iterations = int(max_iterations)
+        self._S = np.ones(model.n, dtype=bool)
+        self._M, self._c = _factors(model, _set_keys(self._S[None])[0], self._S)
+        self.last_iterations = 0
+        self.last_converged = True
+
+    def displacement(self, wrench) -> np.ndarray:
+        """Cuff displacement u (6,) for one wrench W (6,) [N, N*m]."""
+        model = self.model
+        r = np.asarray(wrench, dtype=float) + model.W_pre
+        if r.shape != (6,) or not np.isfinite(r).all():
+            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
+        S, M, c = self._S, self._M, self._c
+        for it in range(1, min(PLAIN_ITERATIONS, self.max_iterations) + 1):
+            u = M @ (r + c)
+            g = model.delta0 + model.b @ u
+            S_new = g > 0
+            if _consistent(S[None], g[None])[0]:
+                self._S, self._M, self._c = S, M, c
+                self.last_iterations, self.last_converged = it, True
+                return u
+            S = S_new
+            M, c = _factors(model, _set_keys(S[None])[0], S)
+        u, n_it, ok = _newton_safeguarded(model, r, u, self.max_iterations - it)
+        self.last_iterations, self.last_converged = it + n_it, ok
+        S = (model.delta0 + model.b @ u) > 0
+        self._S = S
+        self._M, self._c = _factors(model, _set_keys(S[None])[0], S)
+        return u
+
+    def forces(self, wrench) -> np.ndarray:
+        """Normal force of every element f_e (n,) [N] for one wrench W (6,) [N, N*m]."""
+        u = self.displacement(wrench)
+        f = self.model.k * np.maximum(self.model.delta0 + self.model.b @ u, 0.0)
+        if not self.last_converged:
+            f[:] = np.nan
+        return f

@@ -1,0 +1,128 @@
+"""Springs of the interface (SPEC section 2).
+
+Series chain per element: bone - tissue spring - skin - cuff spring - rigid
+robot, plus a bonded tangential (shear) spring. The contact law of the normal
+spring sits behind a small interface (:class:`ContactLaw`) so that nonlinear
+tissue laws can be added without touching the solver's callers.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+
+__all__ = ["indenter_to_element", "series_stiffness", "element_stiffness",
+           "shear_ratio_from_poisson", "shear_stiffness_matrix", "ContactLaw",
+           "LinearContact"]
+
+
+def indenter_to_element(k_indenter, area, indenter_diameter: float = 0.009) -> np.ndarray:
+    """Convert an indenter stiffness to the stiffness of an element by area.
+
+    k_t,e = k_ind,e * A_e / (pi d^2 / 4)
+
+    Parameters
+    ----------
+    k_indenter : array_like
+        Stiffness measured with a flat cylindrical indenter [N/m].
+    area : array_like
+        Element area A_e [m^2].
+    indenter_diameter : float
+        Indenter diameter d [m].
+
+    Returns
+    -------
+    ndarray
+        Element tissue stiffness [N/m].
+    """
+    a_ind = np.pi * indenter_diameter ** 2 / 4.0
+    return np.asarray(k_indenter, dtype=float) * np.asarray(area, dtype=float) / a_ind
+
+
+def series_stiffness(k_a, k_b) -> np.ndarray:
+    """Two springs in series, 1 / (1/k_a + 1/k_b) [N/m]; an infinite spring drops out."""
+    k_a = np.asarray(k_a, dtype=float)
+    k_b = np.asarray(k_b, dtype=float)
+    with np.errstate(divide="ignore"):
+        return 1.0 / (1.0 / k_a + 1.0 / k_b)
+
+
+def element_stiffness(k_tissue, k_cuff, arm: str = "compliant") -> np.ndarray:
+    """Normal stiffness k_e of each element [N/m].
+
+    Parameters
+    ----------
+    k_tissue : array_like
+        Element tissue stiffness k_t,e [N/m].
+    k_cuff : array_like
+        Cuff stiffness k_c,e [N/m]; ``inf`` allowed.
+    arm : {'compliant', 'rigid'}
+        ``compliant``: tissue and cuff in series; ``rigid``: the rigid-arm
+        assumption of the literature, k_e = k_c,e.
+    """
+    if arm == "compliant":
+        return series_stiffness(k_tissue, k_cuff)
+    if arm == "rigid":
+        return np.broadcast_to(np.asarray(k_cuff, dtype=float),
+                               np.shape(k_tissue)).astype(float, copy=True)
+    raise ValueError(f"arm: expected 'compliant' or 'rigid', got {arm!r}")
+
+
+def shear_ratio_from_poisson(nu: float) -> float:
+    """Default shear ratio eta = 1 / (2 (1 + nu)) [-]."""
+    return 1.0 / (2.0 * (1.0 + float(nu)))
+
+
+def shear_stiffness_matrix(k_shear, B, normals) -> np.ndarray:
+    """K_s = sum_e k_s,e B_e^T (I3 - n_e n_e^T) B_e, shape (6, 6) [N/m, N, N*m].
+
+    Parameters
+    ----------
+    k_shear : array_like, shape (n,)
+        Tangential stiffness of each element [N/m].
+    B : ndarray, shape (n, 3, 6)
+        Element Jacobians.
+    normals : ndarray, shape (n, 3)
+        Unit normals.
+    """
+    P = np.eye(3)[None] - normals[:, :, None] * normals[:, None, :]
+    PB = P @ B
+    return np.einsum("e,eij,eik->jk", np.asarray(k_shear, dtype=float), B, PB)
+
+
+class ContactLaw(Protocol):
+    """A compression-only normal contact law per element.
+
+    ``g`` is the compression delta0_e + b_e . u [m], any shape (..., n).
+    """
+
+    is_linear: bool
+
+    def force(self, g: np.ndarray) -> np.ndarray:
+        """Normal force [N] (zero where g <= 0)."""
+
+    def tangent(self, g: np.ndarray) -> np.ndarray:
+        """d force / d g [N/m]."""
+
+    def energy(self, g: np.ndarray) -> np.ndarray:
+        """Stored energy [J]."""
+
+
+class LinearContact:
+    """Linear compression-only spring: f = k [g]_+ (SPEC section 2)."""
+
+    is_linear = True
+
+    def __init__(self, k):
+        self.k = np.asarray(k, dtype=float)
+
+    def force(self, g):
+        return self.k * np.maximum(g, 0.0)
+
+    def tangent(self, g):
+        return np.where(g > 0.0, self.k, 0.0)
+
+    def energy(self, g):
+        gp = np.maximum(g, 0.0)
+        return 0.5 * self.k * gp * gp
