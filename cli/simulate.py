@@ -1,0 +1,67 @@
+"""``phri simulate``: wrench log -> contact force of every cuff element."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import StderrProgress, info, progress_enabled, warn
+
+
+@click.command("simulate", context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("config", metavar="CONFIG")
+@click.argument("log", metavar="LOG")
+@click.option("-o", "--output", required=True, metavar="OUT",
+              help="Forces file to write: .csv or .parquet (chosen by the extension).")
+@click.option("--arm", type=click.Choice(["compliant", "rigid"]), default="compliant",
+              show_default=True,
+              help="compliant: tissue and cuff springs in series; rigid: the rigid-arm "
+                   "assumption (cuff springs only).")
+@click.option("--baseline", default="none", show_default=True, metavar="SPEC",
+              help="none (absolute forces, preload included) | zero (subtract the forces at "
+                   "zero wrench) | first:SECONDS | window:T0:T1 (subtract the forces at the "
+                   "mean wrench of that window, times in s).")
+@click.option("--column", "columns", multiple=True, metavar="NAME=LOG_NAME",
+              help="Map a spec column (time, Fx, Fy, Fz, Mx, My, Mz) to the log's name, "
+                   "e.g. --column 'Fx=Fx (N)'. Repeatable; overrides load_cell.columns.")
+@click.option("--chunk-rows", type=click.IntRange(min=1), default=131072, show_default=True,
+              help="Samples per chunk (bounds memory on long logs).")
+@click.option("--progress/--no-progress", default=None,
+              help="Progress on stderr (default: only when stderr is a terminal).")
+@click.option("-q", "--quiet", is_flag=True, help="No summary line.")
+def simulate(config, log, output, arm, baseline, columns, chunk_rows, progress, quiet):
+    """Predict the normal force [N] on every cuff element for each sample of LOG.
+
+    CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
+    or Parquet wrench log with columns time [s], Fx Fy Fz [N or lbf], Mx My Mz
+    [N*m or N*mm] as the load cell reads them (units and axes set in the
+    config's load_cell section).
+
+    OUT gets time [s], one column per element (A0 ... C6) with the normal
+    force [N], then contacts_in_touch, peak_pressure_kPa,
+    peak_pressure_element, peak_pressure_to_pain_threshold [-],
+    solver_iterations and converged.
+
+    \b
+    Example:
+      phri simulate configs/harmony_upper_arm.yaml examples/wrench_log.csv \\
+          -o forces.csv --baseline first:2
+    """
+    from phri_spring.io.logs import parse_column_map
+    from phri_spring.workflows.simulate import parse_baseline, simulate_file
+
+    colmap = parse_column_map(columns)
+    base = parse_baseline(baseline)
+    bar = StderrProgress("simulate", progress_enabled(progress))
+    try:
+        summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
+                                chunk_rows=chunk_rows, progress=bar)
+    finally:
+        bar.close()
+    if summary.not_converged:
+        warn(f"the solver did not converge for {summary.not_converged:,} of "
+             f"{summary.samples:,} samples; their forces are NaN (column 'converged')")
+    info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
+         f"{arm} arm, baseline {base}); peak pressure {summary.max_peak_pressure_kpa:.1f} kPa at "
+         f"{summary.max_peak_element} ({100 * summary.max_pain_ratio:.0f}% of the pain "
+         f"threshold); solver {summary.mean_iterations:.2f} solves/sample on average",
+         quiet)

@@ -1,0 +1,499 @@
+"""The YAML config of SPEC section 6: safe loading and validation.
+
+Loading never runs code (``yaml.SafeLoader``: a ``!!python/...`` tag is an
+error), unknown keys are rejected with the closest valid name, duplicate keys
+are rejected, and every value is checked. Errors are :class:`ConfigError`
+naming the file and the key path (``cuff.stiffness.per_angle``).
+
+The result is a plain :class:`Config` dataclass holding arrays.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal, Optional, Union
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+
+from ..errors import ConfigError, ConfigTypeError, DataError
+
+__all__ = ["Config", "load_config", "config_from_dict", "resolve_stiffness", "LOG_COLUMNS"]
+
+#: the wrench-log columns of SPEC section 7
+LOG_COLUMNS = ("time", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
+
+
+# --------------------------------------------------------------------------- YAML
+class _StrictSafeLoader(yaml.SafeLoader):
+    """SafeLoader that also rejects duplicate keys."""
+
+
+def _construct_mapping(loader, node, deep=False):
+    seen = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r} (first at line {seen[key] + 1})",
+                key_node.start_mark)
+        seen[key] = key_node.start_mark.line
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+_StrictSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG,
+                                  _construct_mapping)
+# YAML 1.1 reads ``1.0e6`` and ``1e6`` as text; labs write them as numbers (YAML 1.2 does too).
+_StrictSafeLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"))
+
+
+def load_yaml(path) -> Any:
+    """Parse a YAML file safely; errors become one-line :class:`ConfigError`."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError("file not found; expected a YAML file", file=path) from None
+    except IsADirectoryError:
+        raise ConfigError("is a folder; expected a YAML file", file=path) from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read ({exc.__class__.__name__}: {exc})", file=path) from None
+    try:
+        return yaml.load(text, Loader=_StrictSafeLoader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"line {mark.line + 1}, column {mark.column + 1}: " if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        if "python/" in str(exc) or "could not determine a constructor" in str(exc):
+            problem = (f"{problem}; tags like !!python/... are not allowed "
+                       "(configs are loaded safely and never run code)")
+        raise ConfigError(f"{where}invalid YAML: {problem}".replace("\n", " "), file=path) from None
+
+
+# --------------------------------------------------------------------------- schema
+_StiffnessValue = Union[float, str, list, dict]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=False)
+
+
+class _Angles(_Strict):
+    start: float
+    step: float
+    count: int = Field(ge=1)
+    width: Optional[float] = Field(default=None, gt=0, le=360)
+
+
+class _Geometry(_Strict):
+    radius: Union[float, list[float]]
+    rows: dict[str, float]
+    row_width: Union[float, list[float]]
+    angles: _Angles
+
+    @field_validator("rows")
+    @classmethod
+    def _rows(cls, v):
+        if not v:
+            raise ValueError("expected at least one row, e.g. {A: -0.025, B: 0.0, C: 0.025}")
+        for label in v:
+            if not str(label).strip() or any(c.isspace() for c in str(label)):
+                raise ValueError(f"row label {label!r}: expected a label without spaces")
+        return v
+
+
+class _LoadCell(_Strict):
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotation: Optional[tuple[tuple[float, float, float], tuple[float, float, float],
+                             tuple[float, float, float]]] = None
+    euler_xyz_deg: Optional[tuple[float, float, float]] = None
+    convention: Literal["robot_on_cuff", "cuff_on_robot"] = "robot_on_cuff"
+    force_unit: Literal["N", "lbf"] = "N"
+    moment_unit: Literal["N*m", "N*mm"] = "N*m"
+    columns: dict[str, str] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _one_rotation(self):
+        if self.rotation is not None and self.euler_xyz_deg is not None:
+            raise ValueError("give either 'rotation' or 'euler_xyz_deg', not both")
+        return self
+
+
+class _Tissue(_Strict):
+    stiffness: _StiffnessValue
+    basis: Literal["indenter", "element"] = "indenter"
+    indenter_diameter: float = Field(default=0.009, gt=0)
+    poisson_ratio: float = Field(default=0.45, gt=-1.0, le=0.5)
+
+
+class _Cuff(_Strict):
+    stiffness: _StiffnessValue
+
+
+class _Interface(_Strict):
+    pain_threshold_kpa: float = Field(default=120.0, gt=0)
+    shear_ratio: Optional[float] = Field(default=None, gt=0)
+
+
+class _Strap(_Strict):
+    tension: float = Field(default=15.0, ge=0)
+    model: Literal["hoop", "handles"] = "hoop"
+    handle_angles: Optional[tuple[float, float]] = None
+    axial_position: Optional[float] = None
+
+
+class _Solver(_Strict):
+    max_iterations: int = Field(default=100, ge=1, le=100000)
+
+
+class _Root(_Strict):
+    name: str = ""
+    geometry: _Geometry
+    load_cell: _LoadCell = Field(default_factory=_LoadCell)
+    tissue: _Tissue
+    cuff: _Cuff
+    interface: _Interface = Field(default_factory=_Interface)
+    strap: _Strap = Field(default_factory=_Strap)
+    solver: _Solver = Field(default_factory=_Solver)
+
+
+def _fields_at(model_cls, loc) -> list[str]:
+    """Valid keys of the mapping at key path ``loc`` (for 'did you mean')."""
+    cls = model_cls
+    for part in loc:
+        f = getattr(cls, "model_fields", {}).get(part)
+        if f is None:
+            return []
+        ann = f.annotation
+        if isinstance(ann, type) and issubclass(ann, BaseModel):
+            cls = ann
+        else:
+            return []
+    return list(getattr(cls, "model_fields", {}))
+
+
+def _pydantic_to_config_error(exc: ValidationError, path) -> ConfigError:
+    err = exc.errors(include_url=False)[0]
+    loc = [str(p) for p in err["loc"] if not str(p).startswith(("function-", "union"))]
+    # drop pydantic's union branch names such as 'float', 'list[float]'
+    loc = [p for p in loc if p not in ("float", "list[float]", "str", "list", "dict", "int")]
+    etype = err["type"]
+    if etype == "extra_forbidden":
+        bad = loc[-1]
+        valid = _fields_at(_Root, loc[:-1])
+        close = difflib.get_close_matches(bad, valid, n=1, cutoff=0.5)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        parent = ".".join(loc[:-1]) or "the top level"
+        return ConfigError(f"unknown key {bad!r} in {parent}{hint} (valid keys: "
+                           f"{', '.join(valid)})", file=path, key=".".join(loc))
+    if etype == "missing":
+        return ConfigError("missing required key", file=path, key=".".join(loc))
+    msg = err["msg"]
+    given = err.get("input")
+    if etype in ("float_parsing", "int_parsing", "float_type", "int_type", "bool_type",
+                 "string_type", "dict_type", "list_type", "tuple_type", "model_type"):
+        cls = ConfigTypeError
+    else:
+        cls = ConfigError
+    if isinstance(given, (int, float, str)) and not isinstance(given, bool):
+        msg = f"{msg}, got {given!r}"
+    return cls(msg, file=path, key=".".join(loc) or None)
+
+
+# --------------------------------------------------------------------------- result
+@dataclass(eq=False)
+class Config:
+    """A validated config, as plain values and arrays (SI units)."""
+
+    path: Optional[Path]
+    name: str
+    row_labels: tuple
+    row_x: np.ndarray
+    radius: np.ndarray
+    row_width: np.ndarray
+    angle_start_deg: float
+    angle_step_deg: float
+    angle_count: int
+    angle_width_deg: Optional[float]
+    labels: tuple
+    tissue_stiffness: np.ndarray           # (n,), as configured, in tissue_basis
+    tissue_basis: str
+    indenter_diameter: float
+    poisson_ratio: float
+    cuff_stiffness: np.ndarray             # (n,) [N/m], inf allowed
+    loadcell_position: np.ndarray
+    loadcell_rotation: np.ndarray
+    loadcell_sign: float
+    force_unit: str
+    moment_unit: str
+    log_columns: dict = field(default_factory=dict)
+    pain_threshold_kpa: float = 120.0
+    shear_ratio: Optional[float] = None
+    strap_tension: float = 15.0
+    strap_model: str = "hoop"
+    handle_angles_deg: Optional[tuple] = None
+    strap_axial_position: Optional[float] = None
+    max_iterations: int = 100
+    raw: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n_rows(self) -> int:
+        return len(self.row_labels)
+
+    @property
+    def n_elements(self) -> int:
+        return len(self.labels)
+
+
+def _label_list(row_labels, count) -> tuple:
+    return tuple(f"{r}{j}" for r in row_labels for j in range(count))
+
+
+def _read_stiffness_csv(csv_path: Path, labels, path, key) -> np.ndarray:
+    import pandas as pd
+
+    if not csv_path.is_file():
+        raise ConfigError(f"stiffness file {str(csv_path)!r} not found (paths are relative to the "
+                          "config's folder)", file=path, key=key)
+    try:
+        df = pd.read_csv(csv_path, comment="#")
+    except Exception as exc:  # noqa: BLE001 - any parser failure is bad data
+        raise DataError(f"cannot read as CSV ({exc})", file=csv_path) from None
+    for col in ("location", "stiffness_N_per_m"):
+        if col not in df.columns:
+            raise DataError(f"missing column {col!r}; expected a CSV written by "
+                            "'phri fit-stiffness'", file=csv_path, key=col)
+    values = pd.to_numeric(df["stiffness_N_per_m"], errors="coerce")
+    locs = df["location"].astype(str).str.strip()
+    mapping = {}
+    for loc, v, raw in zip(locs, values, df["stiffness_N_per_m"]):
+        if loc in mapping:
+            raise DataError(f"location {loc!r} appears twice", file=csv_path, key="location")
+        if not (isinstance(v, float) and math.isfinite(v) and v > 0):
+            raise DataError(f"location {loc}: expected a positive finite stiffness, got {raw!r}",
+                            file=csv_path, key="stiffness_N_per_m")
+        mapping[loc] = float(v)
+    missing = [lab for lab in labels if lab not in mapping]
+    extra = [loc for loc in mapping if loc not in labels]
+    if missing or extra:
+        parts = []
+        if missing:
+            parts.append(f"missing locations {', '.join(missing)}")
+        if extra:
+            parts.append(f"locations not in the config's geometry {', '.join(extra)}")
+        raise DataError("; ".join(parts) + f" (the geometry has {len(labels)} elements "
+                        f"{labels[0]}..{labels[-1]})", file=csv_path, key="location")
+    return np.array([mapping[lab] for lab in labels])
+
+
+def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, key="",
+                      allow_inf: bool = False, base_dir: Optional[Path] = None) -> np.ndarray:
+    """Turn any stiffness value form of SPEC section 6 into an (n,) array [N/m], row-major.
+
+    Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
+    rows x angles list, a mapping label -> value covering every element, or a
+    path (relative to ``base_dir``) to a CSV written by ``phri fit-stiffness``.
+    """
+    n = n_rows * n_angles
+    shape_txt = f"{n_rows} rows x {n_angles} angles"
+
+    def check(arr, k=key):
+        arr = np.asarray(arr, dtype=float)
+        bad = ~(arr > 0) | (np.isinf(arr) & (not allow_inf)) | np.isnan(arr)
+        if bad.any():
+            i = int(np.argmax(bad.ravel()))
+            what = "a positive stiffness (.inf allowed)" if allow_inf else \
+                "a positive finite stiffness"
+            lab = f" at {labels[i]}" if arr.size == n else ""
+            raise ConfigError(f"expected {what} [N/m]{lab}, got {arr.ravel()[i]!r}",
+                              file=path, key=k)
+        return arr
+
+    def numbers(seq, k):
+        out = []
+        for i, v in enumerate(seq):
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ConfigTypeError(f"item {i}: expected a number [N/m], got {v!r}",
+                                      file=path, key=k)
+            out.append(float(v))
+        return out
+
+    if isinstance(value, bool):
+        raise ConfigTypeError(f"expected a stiffness [N/m], got {value!r}", file=path, key=key)
+    if isinstance(value, (int, float)):
+        return np.full(n, float(check(float(value))))
+    if isinstance(value, str):
+        base = base_dir if base_dir is not None else Path(".")
+        csv_path = Path(value) if Path(value).is_absolute() else base / value
+        return check(_read_stiffness_csv(csv_path, labels, path, key))
+    if isinstance(value, dict):
+        if set(value) in ({"per_row"}, {"per_angle"}):
+            (form, seq), = value.items()
+            want = n_rows if form == "per_row" else n_angles
+            k = f"{key}.{form}"
+            if not isinstance(seq, list) or len(seq) != want:
+                got = len(seq) if isinstance(seq, list) else repr(seq)
+                raise ConfigError(f"expected a list of {want} values (one per "
+                                  f"{'row' if form == 'per_row' else 'angle'}), got {got}",
+                                  file=path, key=k)
+            arr = check(numbers(seq, k), k)
+            return np.repeat(arr, n_angles) if form == "per_row" else np.tile(arr, n_rows)
+        keys = [str(x) for x in value]
+        if any(x in ("per_row", "per_angle") for x in keys):
+            raise ConfigError("expected exactly one of 'per_row' or 'per_angle'", file=path,
+                              key=key)
+        unknown = [x for x in keys if x not in labels]
+        if unknown:
+            close = difflib.get_close_matches(unknown[0], list(labels) + ["per_row", "per_angle"],
+                                              n=1, cutoff=0.5)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ConfigError(f"unknown element label {unknown[0]!r}{hint} (expected labels "
+                              f"{labels[0]}..{labels[-1]}, 'per_row' or 'per_angle')",
+                              file=path, key=f"{key}.{unknown[0]}")
+        missing = [lab for lab in labels if lab not in keys]
+        if missing:
+            raise ConfigError(f"a mapping by element label must cover every element; missing "
+                              f"{', '.join(missing)}", file=path, key=key)
+        vals = {str(k2): v for k2, v in value.items()}
+        arr = numbers([vals[lab] for lab in labels], key)
+        return check(arr)
+    if isinstance(value, list):
+        if len(value) != n_rows or not all(isinstance(r, list) and len(r) == n_angles
+                                           for r in value):
+            raise ConfigError(f"a nested list must be {shape_txt}", file=path, key=key)
+        flat = []
+        for i, r in enumerate(value):
+            flat.extend(numbers(r, f"{key}[{i}]"))
+        return check(flat)
+    raise ConfigTypeError(f"expected a number, {{per_row: [...]}}, {{per_angle: [...]}}, a "
+                          f"{shape_txt} list, a label mapping or a CSV path, got {value!r}",
+                          file=path, key=key)
+
+
+def _per_row(value, n_rows, path, key) -> np.ndarray:
+    arr = np.atleast_1d(np.asarray(value, dtype=float))
+    if arr.size == 1:
+        arr = np.full(n_rows, float(arr[0]))
+    if arr.shape != (n_rows,):
+        raise ConfigError(f"expected a scalar or {n_rows} values (one per row), got {arr.size}",
+                          file=path, key=key)
+    if not np.all(np.isfinite(arr) & (arr > 0)):
+        raise ConfigError(f"expected positive finite values [m], got {arr.tolist()}", file=path,
+                          key=key)
+    return arr
+
+
+def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
+    """Validate a parsed config mapping (as from YAML) into a :class:`Config`."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"expected a mapping at the top level (name, geometry, tissue, cuff, "
+                          f"...), got {type(data).__name__}", file=path)
+    try:
+        root = _Root.model_validate(data)
+    except ValidationError as exc:
+        raise _pydantic_to_config_error(exc, path) from None
+
+    g = root.geometry
+    row_labels = tuple(str(k) for k in g.rows)
+    if len(set(row_labels)) != len(row_labels):
+        raise ConfigError("row labels must be unique", file=path, key="geometry.rows")
+    row_x = np.array([float(v) for v in g.rows.values()])
+    if not np.all(np.isfinite(row_x)):
+        raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
+    n_rows, n_ang = len(row_labels), g.angles.count
+    radius = _per_row(g.radius, n_rows, path, "geometry.radius")
+    row_width = _per_row(g.row_width, n_rows, path, "geometry.row_width")
+    for k in ("start", "step"):
+        if not math.isfinite(getattr(g.angles, k)):
+            raise ConfigError("expected a finite angle [deg]", file=path, key=f"geometry.angles.{k}")
+    if n_ang > 1 and not g.angles.step > 0:
+        raise ConfigError(f"expected a positive step [deg], got {g.angles.step}", file=path,
+                          key="geometry.angles.step")
+    width = g.angles.width if g.angles.width is not None else g.angles.step
+    if not width > 0:
+        raise ConfigError("expected a positive angular width [deg] (give geometry.angles.width "
+                          "when count is 1)", file=path, key="geometry.angles.width")
+    if n_ang * width > 360.0 + 1e-9:
+        raise ConfigError(f"{n_ang} elements of {width} deg span more than 360 deg", file=path,
+                          key="geometry.angles")
+    labels = _label_list(row_labels, n_ang)
+    base = Path(base_dir) if base_dir is not None else (Path(path).parent if path else Path("."))
+
+    k_t = resolve_stiffness(root.tissue.stiffness, n_rows, n_ang, labels, path=path,
+                            key="tissue.stiffness", allow_inf=False, base_dir=base)
+    k_c = resolve_stiffness(root.cuff.stiffness, n_rows, n_ang, labels, path=path,
+                            key="cuff.stiffness", allow_inf=True, base_dir=base)
+
+    lc = root.load_cell
+    from ..physics.loadcell import convention_sign, rotation_from_euler_xyz
+
+    if lc.rotation is not None:
+        R = np.array(lc.rotation, dtype=float)
+        if not (np.all(np.isfinite(R)) and np.allclose(R @ R.T, np.eye(3), atol=1e-6)
+                and np.linalg.det(R) > 0):
+            raise ConfigError("expected a proper rotation matrix (orthonormal, det +1; "
+                              "v_cuff = R v_lc)", file=path, key="load_cell.rotation")
+    elif lc.euler_xyz_deg is not None:
+        R = rotation_from_euler_xyz(lc.euler_xyz_deg)
+    else:
+        R = np.eye(3)
+    pos = np.array(lc.position, dtype=float)
+    if not np.all(np.isfinite(pos)):
+        raise ConfigError("expected finite coordinates [m]", file=path, key="load_cell.position")
+    unknown_cols = [c for c in lc.columns if c not in LOG_COLUMNS]
+    if unknown_cols:
+        close = difflib.get_close_matches(unknown_cols[0], LOG_COLUMNS, n=1, cutoff=0.5)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ConfigError(f"unknown log column {unknown_cols[0]!r}{hint} (expected keys among "
+                          f"{', '.join(LOG_COLUMNS)}, mapped to the names in your log)",
+                          file=path, key=f"load_cell.columns.{unknown_cols[0]}")
+
+    st = root.strap
+    for k in ("tension",):
+        if not math.isfinite(getattr(st, k)):
+            raise ConfigError("expected a finite tension [N]", file=path, key="strap.tension")
+
+    return Config(
+        path=Path(path) if path else None, name=root.name, row_labels=row_labels, row_x=row_x,
+        radius=radius, row_width=row_width, angle_start_deg=float(g.angles.start),
+        angle_step_deg=float(g.angles.step), angle_count=int(n_ang),
+        angle_width_deg=None if g.angles.width is None else float(g.angles.width),
+        labels=labels, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
+        indenter_diameter=float(root.tissue.indenter_diameter),
+        poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
+        loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),
+        force_unit=lc.force_unit, moment_unit=lc.moment_unit, log_columns=dict(lc.columns),
+        pain_threshold_kpa=float(root.interface.pain_threshold_kpa),
+        shear_ratio=root.interface.shear_ratio, strap_tension=float(st.tension),
+        strap_model=st.model,
+        handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
+        strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
+        raw=data,
+    )
+
+
+def load_config(path) -> Config:
+    """Load and validate a YAML config file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The YAML file. Relative stiffness-CSV paths inside it are resolved
+        against its folder.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the key path and what was expected.
+    """
+    path = Path(path)
+    data = load_yaml(path)
+    return config_from_dict(data, path=path, base_dir=path.parent)

@@ -1,0 +1,286 @@
+"""Wrench logs in, contact forces out (SPEC section 7), CSV or Parquet.
+
+Reading and writing go through pyarrow: multi-threaded C++ CSV parsing and
+writing, Parquet, and streaming in chunks so hour-long logs fit in bounded
+memory. Every problem is a one-line :class:`DataError` naming the file and the
+column (and the line, for bad values).
+"""
+
+from __future__ import annotations
+
+import difflib
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterator, Optional
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+from .config import LOG_COLUMNS
+
+__all__ = ["table_format", "resolve_columns", "iter_wrench_log", "read_wrench_log",
+           "count_rows", "ForcesWriter", "WrenchChunk", "parse_column_map"]
+
+_FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet"}
+
+
+def table_format(path, *, role: str = "input", option: Optional[str] = None) -> str:
+    """``'csv'`` or ``'parquet'`` from a file's extension."""
+    ext = Path(path).suffix.lower()
+    fmt = _FORMATS.get(ext)
+    if fmt is None:
+        msg = f"unknown file type {ext or '(none)'!r}; expected .csv or .parquet"
+        if role == "output":
+            raise UsageError(msg, file=path, key=option)
+        raise DataError(msg, file=path)
+    return fmt
+
+
+def parse_column_map(items) -> dict:
+    """``["Fx=Fx (N)", ...]`` -> ``{"Fx": "Fx (N)", ...}`` (the ``--column`` option)."""
+    out = {}
+    for item in items or ():
+        if "=" not in item:
+            raise UsageError(f"expected SPEC_NAME=LOG_NAME (e.g. 'Fx=Fx (N)'), got {item!r}",
+                             key="--column")
+        name, col = item.split("=", 1)
+        name = name.strip()
+        if name not in LOG_COLUMNS:
+            close = difflib.get_close_matches(name, LOG_COLUMNS, n=1, cutoff=0.5)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise UsageError(f"unknown column name {name!r}{hint} (expected one of "
+                             f"{', '.join(LOG_COLUMNS)})", key="--column")
+        out[name] = col
+    return out
+
+
+def resolve_columns(available, mapping: Optional[dict] = None, *, file=None,
+                    wanted=LOG_COLUMNS) -> list:
+    """The log's column name for each wanted spec column, in order."""
+    mapping = dict(mapping or {})
+    available = list(available)
+    out = []
+    for name in wanted:
+        col = mapping.get(name, name)
+        if col not in available:
+            close = difflib.get_close_matches(col, available, n=1, cutoff=0.6)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            how = (f" (mapped from {name!r})" if name in mapping else
+                   f"; map another name with --column {name}=NAME or load_cell.columns")
+            raise DataError(f"missing column {col!r}{how}{hint}; the file has "
+                            f"{', '.join(map(repr, available[:12]))}"
+                            f"{' ...' if len(available) > 12 else ''}", file=file, key=col)
+        out.append(col)
+    return out
+
+
+@dataclass
+class WrenchChunk:
+    """Rows ``start .. start + len`` of a log."""
+
+    start: int
+    time: np.ndarray          # (k,) [s]
+    wrench: np.ndarray        # (k, 6) in the log's units
+
+
+_ARROW_ROW = re.compile(r"[Rr]ow #(\d+)")
+_ARROW_COL = re.compile(r"column #(\d+)")
+_ARROW_VAL = re.compile(r"invalid value '([^']*)'")
+
+
+def _arrow_error(exc, path, cols) -> DataError:
+    text = str(exc).replace("\n", " ")
+    mcol, mrow, mval = _ARROW_COL.search(text), _ARROW_ROW.search(text), _ARROW_VAL.search(text)
+    col = cols[int(mcol.group(1))] if mcol and int(mcol.group(1)) < len(cols) else None
+    where = f" on line {int(mrow.group(1))}" if mrow else ""
+    if mval:
+        return DataError(f"expected a number{where}, got {mval.group(1)!r}", file=path, key=col)
+    return DataError(f"cannot parse as CSV: {text}", file=path, key=col)
+
+
+def _check_chunk(arr: np.ndarray, start: int, names, path, fmt) -> None:
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        val = arr[i, j]
+        what = "an empty cell" if np.isnan(val) else repr(float(val))
+        loc = f"line {start + i + 2}" if fmt == "csv" else f"row {start + i + 1}"
+        raise DataError(f"expected a finite number on {loc}, got {what}", file=path,
+                        key=names[j])
+
+
+def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 131072,
+                    wanted=LOG_COLUMNS) -> Iterator[WrenchChunk]:
+    """Stream a wrench log in chunks of about ``chunk_rows`` rows.
+
+    Parameters
+    ----------
+    path : str or path-like
+        CSV (``.csv``, ``.txt``) or Parquet (``.parquet``, ``.pq``) file.
+    columns : dict, optional
+        Map from spec names (``time``, ``Fx`` ... ``Mz``) to the log's names.
+    chunk_rows : int
+        Rows per chunk (CSV chunks follow pyarrow's blocks and are approximate).
+
+    Yields
+    ------
+    WrenchChunk
+        time [s] and wrench in the log's units (SPEC section 5 converts).
+
+    Raises
+    ------
+    DataError
+        Missing file or column, text or NaN in a number, no data rows.
+    """
+    import pyarrow as pa
+
+    path = Path(path)
+    fmt = table_format(path)
+    if not path.exists():
+        raise DataError("file not found; expected a wrench log (.csv or .parquet)", file=path)
+    if path.is_dir():
+        raise DataError("is a folder; expected a wrench log file", file=path)
+    total = 0
+    if fmt == "csv":
+        import pyarrow.csv as pacsv
+
+        try:
+            with open(path, "rb") as fh:
+                head = fh.readline()
+            header = pacsv.read_csv(pa.py_buffer(head),
+                                    read_options=pacsv.ReadOptions(autogenerate_column_names=False)
+                                    ).column_names if head.strip() else []
+        except OSError as exc:
+            raise DataError(f"cannot read ({exc.strerror or exc})", file=path) from None
+        except pa.ArrowInvalid:
+            header = []
+        if not header:
+            raise DataError("the file is empty; expected a header line with time, Fx, Fy, Fz, "
+                            "Mx, My, Mz", file=path)
+        names = resolve_columns(header, columns, file=path, wanted=wanted)
+        block = max(1 << 16, int(chunk_rows) * 16 * len(header))
+        try:
+            reader = pacsv.open_csv(
+                path, read_options=pacsv.ReadOptions(block_size=min(block, 1 << 30)),
+                convert_options=pacsv.ConvertOptions(
+                    include_columns=names, column_types={c: pa.float64() for c in names}))
+            it = iter(reader)
+            while True:
+                try:
+                    batch = next(it)
+                except StopIteration:
+                    break
+                arr = np.column_stack([batch.column(i).to_numpy(zero_copy_only=False)
+                                       for i in range(len(names))]).astype(float, copy=False)
+                if arr.shape[0] == 0:
+                    continue
+                _check_chunk(arr, total, names, path, fmt)
+                yield WrenchChunk(total, arr[:, 0].copy(), arr[:, 1:])
+                total += arr.shape[0]
+        except pa.ArrowInvalid as exc:
+            raise _arrow_error(exc, path, header) from None
+        except pa.ArrowException as exc:
+            raise DataError(f"cannot read as CSV ({exc})".replace("\n", " "), file=path) from None
+    else:
+        import pyarrow.parquet as pq
+
+        try:
+            pf = pq.ParquetFile(path)
+        except (pa.ArrowException, OSError) as exc:
+            raise DataError(f"cannot read as Parquet ({exc})".replace("\n", " "),
+                            file=path) from None
+        names = resolve_columns(pf.schema_arrow.names, columns, file=path, wanted=wanted)
+        for name in names:
+            typ = pf.schema_arrow.field(name).type
+            if not (pa.types.is_floating(typ) or pa.types.is_integer(typ)):
+                raise DataError(f"expected numbers, the column holds {typ}", file=path, key=name)
+        for batch in pf.iter_batches(batch_size=int(chunk_rows), columns=names):
+            arr = np.column_stack([batch.column(i).to_numpy(zero_copy_only=False)
+                                   for i in range(len(names))]).astype(float, copy=False)
+            if arr.shape[0] == 0:
+                continue
+            _check_chunk(arr, total, names, path, fmt)
+            yield WrenchChunk(total, arr[:, 0].copy(), arr[:, 1:])
+            total += arr.shape[0]
+    if total == 0:
+        raise DataError("no data rows; expected at least one sample", file=path)
+
+
+def read_wrench_log(path, columns: Optional[dict] = None):
+    """Read a whole wrench log: ``(time (m,) [s], wrench (m, 6) [log units])``."""
+    chunks = list(iter_wrench_log(path, columns))
+    return (np.concatenate([c.time for c in chunks]),
+            np.concatenate([c.wrench for c in chunks]))
+
+
+def count_rows(path) -> Optional[int]:
+    """Number of data rows (fast newline count for CSV, metadata for Parquet)."""
+    path = Path(path)
+    try:
+        if table_format(path) == "parquet":
+            import pyarrow.parquet as pq
+
+            return pq.ParquetFile(path).metadata.num_rows
+        n = 0
+        last = b"\n"
+        with open(path, "rb") as fh:
+            while True:
+                buf = fh.read(1 << 24)
+                if not buf:
+                    break
+                n += buf.count(b"\n")
+                last = buf[-1:]
+        return max(0, n - 1 + (last != b"\n"))
+    except (OSError, DataError):
+        return None
+
+
+class ForcesWriter:
+    """Write the forces table (SPEC section 7) in chunks, CSV or Parquet by extension.
+
+    Columns: ``time``, one per element label [N], then extra columns.
+    Use as a context manager around an already-atomic temporary path.
+    """
+
+    def __init__(self, path, fmt: str, labels, extra_types: dict):
+        import pyarrow as pa
+
+        self.path = Path(path)
+        self.fmt = fmt
+        self.labels = list(labels)
+        fields = [pa.field("time", pa.float64())]
+        fields += [pa.field(lab, pa.float64()) for lab in self.labels]
+        fields += [pa.field(name, typ) for name, typ in extra_types.items()]
+        self.schema = pa.schema(fields)
+        self._writer = None
+
+    def __enter__(self):
+        if self.fmt == "csv":
+            import pyarrow.csv as pacsv
+
+            try:
+                opts = pacsv.WriteOptions(quoting_style="needed")
+            except TypeError:  # pragma: no cover - pyarrow < 14
+                opts = pacsv.WriteOptions()
+            self._writer = pacsv.CSVWriter(str(self.path), self.schema, write_options=opts)
+        else:
+            import pyarrow.parquet as pq
+
+            self._writer = pq.ParquetWriter(str(self.path), self.schema, compression="snappy")
+        return self
+
+    def write(self, time, forces, extras: dict) -> None:
+        import pyarrow as pa
+
+        cols = [pa.array(np.asarray(time, dtype=float))]
+        forces = np.asarray(forces, dtype=float)
+        cols += [pa.array(forces[:, j]) for j in range(forces.shape[1])]
+        for name in self.schema.names[1 + len(self.labels):]:
+            cols.append(pa.array(extras[name], type=self.schema.field(name).type))
+        self._writer.write_table(pa.Table.from_arrays(cols, schema=self.schema))
+
+    def __exit__(self, *exc):
+        if self._writer is not None:
+            self._writer.close()
+        return False
