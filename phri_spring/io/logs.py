@@ -89,11 +89,28 @@ _ARROW_COL = re.compile(r"column #(\d+)")
 _ARROW_VAL = re.compile(r"invalid value '([^']*)'")
 
 
-def _arrow_error(exc, path, cols) -> DataError:
+def _find_line(path, col: int, value: str):
+    """Line number (1-based) of the first row whose column ``col`` holds ``value``."""
+    import csv
+
+    try:
+        with open(path, newline="", encoding="utf-8", errors="replace") as fh:
+            for lineno, row in enumerate(csv.reader(fh), start=1):
+                if len(row) > col and row[col] == value and not row[0].lstrip().startswith("#"):
+                    return lineno
+    except OSError:
+        return None
+    return None
+
+
+def _arrow_error(exc, path, cols, skip: int = 0) -> DataError:
     text = str(exc).replace("\n", " ")
     mcol, mrow, mval = _ARROW_COL.search(text), _ARROW_ROW.search(text), _ARROW_VAL.search(text)
     col = cols[int(mcol.group(1))] if mcol and int(mcol.group(1)) < len(cols) else None
-    where = f" on line {int(mrow.group(1))}" if mrow else ""
+    where = f" on line {int(mrow.group(1)) + skip}" if mrow else ""
+    if not mrow and mcol and mval:
+        line = _find_line(path, int(mcol.group(1)), mval.group(1))
+        where = f" on line {line}" if line else ""
     if mval:
         return DataError(f"expected a number{where}, got {mval.group(1)!r}", file=path, key=col)
     return DataError(f"cannot parse as CSV: {text}", file=path, key=col)
@@ -145,9 +162,13 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
     if fmt == "csv":
         import pyarrow.csv as pacsv
 
+        skip = 0  # leading comment lines ('# ...') are allowed
         try:
             with open(path, "rb") as fh:
                 head = fh.readline()
+                while head.lstrip().startswith(b"#"):
+                    skip += 1
+                    head = fh.readline()
             header = pacsv.read_csv(pa.py_buffer(head),
                                     read_options=pacsv.ReadOptions(autogenerate_column_names=False)
                                     ).column_names if head.strip() else []
@@ -162,7 +183,8 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
         block = max(1 << 16, int(chunk_rows) * 16 * len(header))
         try:
             reader = pacsv.open_csv(
-                path, read_options=pacsv.ReadOptions(block_size=min(block, 1 << 30)),
+                path, read_options=pacsv.ReadOptions(block_size=min(block, 1 << 30),
+                                                     skip_rows=skip),
                 convert_options=pacsv.ConvertOptions(
                     include_columns=names, column_types={c: pa.float64() for c in names}))
             it = iter(reader)
@@ -175,11 +197,11 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
                                        for i in range(len(names))]).astype(float, copy=False)
                 if arr.shape[0] == 0:
                     continue
-                _check_chunk(arr, total, names, path, fmt)
+                _check_chunk(arr, total + skip, names, path, fmt)
                 yield WrenchChunk(total, arr[:, 0].copy(), arr[:, 1:])
                 total += arr.shape[0]
         except pa.ArrowInvalid as exc:
-            raise _arrow_error(exc, path, header) from None
+            raise _arrow_error(exc, path, header, skip) from None
         except pa.ArrowException as exc:
             raise DataError(f"cannot read as CSV ({exc})".replace("\n", " "), file=path) from None
     else:
