@@ -1,0 +1,80 @@
+"""``phri fit-stiffness``: indenter recordings -> tissue stiffness map [N/m]."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from ._common import info, warn
+
+
+@click.command("fit-stiffness", context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("input_path", metavar="INPUT", type=click.Path(path_type=Path))
+@click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
+              metavar="OUT.csv", help="Stiffness table to write (a valid tissue.stiffness).")
+@click.option("--zero-window", type=click.FloatRange(min=0, min_open=True), default=3.0,
+              show_default=True, metavar="SECONDS",
+              help="Rest period at the start of each trial; the force is zeroed by its mean "
+                   "over it [s].")
+@click.option("--onset-threshold", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="NEWTONS",
+              help="Rise of the force above its zero level that marks the onset and contact "
+                   "[N]. Default per trial: max(5 x noise SD in the zero window, 0.05 N).")
+@click.option("--displacement-unit", type=click.Choice(["mm", "m"]), default="mm",
+              show_default=True, help="Unit of the displacement column.")
+@click.option("--plots", type=click.Path(path_type=Path), default=None, metavar="DIR",
+              help="Write force_displacement.png (Fig. 6a) and stiffness_map.png (Fig. 6b) "
+                   "into DIR.")
+@click.option("--skip-bad-trials", is_flag=True,
+              help="Leave bad trials out with a warning (n_trials shows it) instead of "
+                   "failing.")
+@click.option("--min-r2", type=click.FloatRange(max=1.0), default=0.98, show_default=True,
+              metavar="R2", help="Flag locations with an unloading fit R^2 below this.")
+@click.option("--max-trial-spread", type=click.FloatRange(min=0.0), default=0.10,
+              show_default=True, metavar="FRACTION",
+              help="Flag locations whose trials differ by more than this fraction of their "
+                   "mean, (max - min) / mean.")
+@click.option("--trials-csv", type=click.Path(path_type=Path), default=None, metavar="FILE",
+              help="Also write one row per trial (slopes, R^2, onset, zero level ...).")
+@click.option("-q", "--quiet", is_flag=True, help="No summary line (warnings still shown).")
+def fit_stiffness(input_path, output, zero_window, onset_threshold, displacement_unit, plots,
+                  skip_bad_trials, min_r2, max_trial_spread, trials_csv, quiet):
+    """Fit the tissue stiffness map [N/m] from indenter recordings.
+
+    INPUT is a folder of trial files named <label>_<trial>.csv (e.g. B3_2.csv;
+    other files such as README or TRUTH.md are ignored) or .mat, or one long CSV
+    with columns location, trial, time, displacement, force. Per trial: time [s],
+    displacement [mm, or m with --displacement-unit m], force [N].
+
+    Per trial the force is zeroed over the first --zero-window seconds, the onset
+    is where it first rises above the zero level by --onset-threshold, the strokes
+    are split at the displacement maxima, a line is fitted to each unloading stroke
+    in contact, and the trial stiffness is the mean unloading slope [N/m]. The
+    location stiffness is the mean over its trials, with the sample SD and count.
+
+    OUT.csv columns: location, row, angle_index, stiffness_N_per_m, std_N_per_m,
+    n_trials, then quality columns (n_strokes, r2_min, loading_slope_N_per_m,
+    hysteresis_ratio, peak_force_N, peak_depth_mm, trial_spread, n_trials_skipped,
+    flags). Use OUT.csv as tissue.stiffness in a config.
+
+    \b
+    Example:
+      phri fit-stiffness examples/indenter -o stiffness.csv --plots figs/
+    """
+    from phri_spring.workflows.fit_stiffness import (check_fit_outputs, fit_stiffness as run,
+                                                     write_fit)
+
+    check_fit_outputs(input_path, output, plots=plots, trials_csv=trials_csv)
+    result = run(input_path, zero_window=zero_window, onset_threshold=onset_threshold,
+                 displacement_unit=displacement_unit, skip_bad_trials=skip_bad_trials,
+                 min_r2=min_r2, max_trial_spread=max_trial_spread)
+    for message in result.warnings:
+        warn(message)
+    written = write_fit(result, output, plots=plots, trials_csv=trials_csv)
+    n_trials = int(sum(loc.n_trials for loc in result.locations))
+    info(f"wrote {', '.join(str(p) for p in written if p.suffix == '.csv')}"
+         + (f" and plots in {plots}" if plots is not None else "")
+         + f" ({n_trials} trials)", quiet=quiet)
+    if not quiet:
+        click.echo(result.summary_line())
