@@ -261,11 +261,15 @@ def count_rows(path) -> Optional[int]:
 class ForcesWriter:
     """Write the forces table (SPEC section 7) in chunks, CSV or Parquet by extension.
 
-    Columns: ``time``, one per element label [N], then extra columns.
-    Use as a context manager around an already-atomic temporary path.
+    Columns: ``time``, one per element label [N], then extra columns. Chunks
+    are converted and written on a background thread (pyarrow formats numbers
+    without holding the GIL), so writing overlaps the solving of the next
+    chunk; at most two chunks wait in the queue, which bounds memory. Use as a
+    context manager around an already-atomic temporary path; an error on the
+    writer thread is raised in the caller.
     """
 
-    def __init__(self, path, fmt: str, labels, extra_types: dict):
+    def __init__(self, path, fmt: str, labels, extra_types: dict, *, threaded: bool = True):
         import pyarrow as pa
 
         self.path = Path(path)
@@ -275,34 +279,83 @@ class ForcesWriter:
         fields += [pa.field(lab, pa.float64()) for lab in self.labels]
         fields += [pa.field(name, typ) for name, typ in extra_types.items()]
         self.schema = pa.schema(fields)
+        self.threaded = threaded
         self._writer = None
+        self._queue = None
+        self._thread = None
+        self._error = None
 
     def __enter__(self):
         if self.fmt == "csv":
             import pyarrow.csv as pacsv
 
-            try:
-                opts = pacsv.WriteOptions(quoting_style="needed")
-            except TypeError:  # pragma: no cover - pyarrow < 14
-                opts = pacsv.WriteOptions()
+            opts = pacsv.WriteOptions(batch_size=16384)
             self._writer = pacsv.CSVWriter(str(self.path), self.schema, write_options=opts)
         else:
             import pyarrow.parquet as pq
 
             self._writer = pq.ParquetWriter(str(self.path), self.schema, compression="snappy")
+        if self.threaded:
+            import queue
+            import threading
+
+            self._queue = queue.Queue(maxsize=2)
+            self._thread = threading.Thread(target=self._run, name="phri-writer", daemon=True)
+            self._thread.start()
         return self
 
-    def write(self, time, forces, extras: dict) -> None:
+    def _run(self):
+        while True:
+            item = self._queue.get()
+            if item is None:
+                return
+            if self._error is not None:
+                continue
+            try:
+                self._write_now(*item)
+            except BaseException as exc:  # noqa: BLE001 - re-raised in the caller
+                self._error = exc
+
+    def _table(self, time, forces, extras):
         import pyarrow as pa
 
         cols = [pa.array(np.asarray(time, dtype=float))]
         forces = np.asarray(forces, dtype=float)
         cols += [pa.array(forces[:, j]) for j in range(forces.shape[1])]
         for name in self.schema.names[1 + len(self.labels):]:
-            cols.append(pa.array(extras[name], type=self.schema.field(name).type))
-        self._writer.write_table(pa.Table.from_arrays(cols, schema=self.schema))
+            typ = self.schema.field(name).type
+            val = extras[name]
+            if pa.types.is_dictionary(typ):
+                idx, names = val
+                cols.append(pa.DictionaryArray.from_arrays(
+                    pa.array(np.asarray(idx, dtype=np.int32)), pa.array(list(names))))
+            else:
+                cols.append(pa.array(val, type=typ))
+        return pa.Table.from_arrays(cols, schema=self.schema)
+
+    def _write_now(self, time, forces, extras):
+        self._writer.write_table(self._table(time, forces, extras))
+
+    def write(self, time, forces, extras: dict) -> None:
+        """Queue (or write) one chunk: time (k,), forces (k, n) [N], extras by column name.
+
+        A dictionary-typed extra column takes ``(indices, names)``.
+        """
+        if self._error is not None:
+            raise self._error
+        if self._queue is None:
+            self._write_now(time, forces, extras)
+        else:
+            self._queue.put((time, forces, extras))
 
     def __exit__(self, *exc):
-        if self._writer is not None:
-            self._writer.close()
+        try:
+            if self._queue is not None:
+                self._queue.put(None)
+                self._thread.join()
+        finally:
+            if self._writer is not None:
+                self._writer.close()
+        if self._error is not None and exc[0] is None:
+            raise self._error
         return False

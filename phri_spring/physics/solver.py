@@ -29,7 +29,7 @@ import numpy as np
 
 from .model import SpringModel
 
-__all__ = ["Solution", "solve", "Solver", "compression", "normal_forces", "shear_forces",
+__all__ = ["Solution", "solve", "solve_per_sample", "Solver", "compression", "normal_forces", "shear_forces",
            "energy", "equilibrium_residual", "PLAIN_ITERATIONS"]
 
 #: plain (undamped) active-set iterations before the line-search safeguard takes over
@@ -104,29 +104,88 @@ def equilibrium_residual(model: SpringModel, u, wrench) -> np.ndarray:
 
 # --------------------------------------------------------------------------- active sets
 def _set_keys(S: np.ndarray) -> np.ndarray:
-    """One hashable, sortable key per row of a boolean matrix."""
+    """One uint64 key per row of a boolean matrix (a contact set).
+
+    Exact (the packed bits) up to 64 elements; above that a 64-bit hash of the
+    packed bits, so results never depend on it: :func:`_solve_block` checks
+    every converged sample's contact set exactly.
+    """
     packed = np.packbits(S, axis=1, bitorder="little")
-    nb = packed.shape[1]
-    if nb <= 8:
-        if nb < 8:
-            packed = np.pad(packed, ((0, 0), (0, 8 - nb)))
-        return np.ascontiguousarray(packed).view("<u8").ravel()
-    return np.ascontiguousarray(packed).view(np.dtype((np.void, nb))).ravel()
+    m, nb = packed.shape
+    nw = (nb + 7) // 8
+    if nb != 8 * nw:
+        full = np.zeros((m, 8 * nw), dtype=np.uint8)
+        full[:, :nb] = packed
+        packed = full
+    words = packed.view("<u8")
+    if nw == 1:
+        return words.ravel()
+    with np.errstate(over="ignore"):
+        return words @ _hash_multipliers(nw)
+
+
+def _hash_multipliers(nw: int) -> np.ndarray:
+    mult = _HASH_CACHE.get(nw)
+    if mult is None:
+        rng = np.random.default_rng(0x5EED)
+        mult = _HASH_CACHE[nw] = rng.integers(1, 2**63, size=nw, dtype=np.uint64) | np.uint64(1)
+    return mult
+
+
+_HASH_CACHE: dict = {}
+
+
+def _spd_solve_batched(Hf: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    """Solve many 6x6 SPD systems at once by a vectorised Cholesky factorisation.
+
+    Hf has shape (36, m) (row-major 6x6 entries, samples last), rhs (m, 6).
+    numpy's batched ``linalg.solve`` calls LAPACK once per matrix; this does
+    about 150 array operations over all samples instead.
+    """
+    L = {}
+    for j in range(6):
+        d = Hf[7 * j].copy()
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        L[j, j] = np.sqrt(d)
+        inv = 1.0 / L[j, j]
+        L[j, j, "inv"] = inv
+        for i in range(j + 1, 6):
+            v = Hf[6 * i + j].copy()
+            for k in range(j):
+                v -= L[i, k] * L[j, k]
+            L[i, j] = v * inv
+    y = []
+    for i in range(6):
+        v = rhs[:, i].copy()
+        for k in range(i):
+            v -= L[i, k] * y[k]
+        y.append(v * L[i, i, "inv"])
+    x = [None] * 6
+    for i in range(5, -1, -1):
+        v = y[i]
+        for k in range(i + 1, 6):
+            v = v - L[k, i] * x[k]
+        x[i] = v * L[i, i, "inv"]
+    return np.stack(x, axis=1)
 
 
 def _factors(model: SpringModel, key, S_row: np.ndarray):
-    """(H_S^-1, c_S) for active set S, cached on the model."""
+    """(H_S^-1 transposed, c_S) for active set S, cached on the model.
+
+    u = (r + c_S) @ Mt solves H_S u = r - sum_{e in S} k_e delta0_e b_e.
+    """
     cache = model._cache
     hk = key.item() if isinstance(key, np.generic) else key
     hit = cache.get(hk)
     if hit is None:
         kS = model.k * S_row
         H = model.K_s + (model.b.T * kS) @ model.b
-        M = np.linalg.inv(H)
+        Mt = np.ascontiguousarray(np.linalg.inv(H).T)
         c = -(kS * model.delta0) @ model.b
         if len(cache) >= _CACHE_MAX:
             cache.clear()
-        hit = cache[hk] = (M, c)
+        hit = cache[hk] = (Mt, c)
     return hit
 
 
@@ -137,35 +196,52 @@ def _outer_bb(model: SpringModel) -> np.ndarray:
     return bb
 
 
-def _solve_sets(model: SpringModel, S: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """u for every row of r with the active set in the same row of S."""
-    keys = _set_keys(S)
+def _bT(model: SpringModel) -> np.ndarray:
+    bT = model._cache.get("__bT__")
+    if bT is None:
+        bT = model._cache["__bT__"] = np.ascontiguousarray(model.b.T)
+    return bT
+
+
+def _compression(model: SpringModel, u: np.ndarray) -> np.ndarray:
+    g = u @ _bT(model)
+    g += model.delta0
+    return g
+
+
+def _solve_sets(model: SpringModel, keys: np.ndarray, S: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """u for every row of r with the active set in the same row of S (keys = its row keys)."""
     m = len(keys)
     if m == 0:
         return np.empty((0, 6))
     if np.all(keys == keys[0]):
-        M, c = _factors(model, keys[0], S[0])
-        return (r + c) @ M.T
+        Mt, c = _factors(model, keys[0], S[0])
+        u = r + c
+        return u @ Mt
     uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
     G = len(uniq)
-    if G <= 64 or 8 * G <= m:
+    if G <= 4 or 4 * G <= m:
         out = np.empty((m, 6))
-        order = np.argsort(inv, kind="stable")
-        bounds = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=G))])
-        for j in range(G):
-            idx = order[bounds[j]:bounds[j + 1]]
-            M, c = _factors(model, uniq[j], S[first[j]])
-            out[idx] = (r[idx] + c) @ M.T
+        if G <= 8:
+            groups = (np.flatnonzero(inv == j) for j in range(G))
+        else:
+            order = np.argsort(inv, kind="stable")
+            bounds = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=G))])
+            groups = (order[bounds[j]:bounds[j + 1]] for j in range(G))
+        for j, idx in enumerate(groups):
+            Mt, c = _factors(model, uniq[j], S[first[j]])
+            out[idx] = (r[idx] + c) @ Mt
         return out
     # many distinct sets: assemble and solve every 6x6 system at once
     kS = S * model.k
-    H = model.K_s + (kS @ _outer_bb(model)).reshape(m, 6, 6)
+    Hf = _outer_bb(model).T @ kS.T
+    Hf += model.K_s.reshape(36, 1)
     rhs = r - (kS * model.delta0) @ model.b
-    return np.linalg.solve(H, rhs[..., None])[..., 0]
+    return _spd_solve_batched(Hf, rhs)
 
 
 def _consistent(S: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """Rows whose active set S agrees with the sign of the compression g."""
+    """Rows whose active set S agrees with the sign of the compression g (to round-off)."""
     tol = _SET_RTOL * np.max(np.abs(g), axis=-1, keepdims=True)
     wrong = (S & (g < -tol)) | (~S & (g > tol))
     return ~wrong.any(axis=-1)
@@ -220,31 +296,105 @@ def _newton_safeguarded(model: SpringModel, r: np.ndarray, u: np.ndarray, budget
 
 
 # --------------------------------------------------------------------------- batch solver
-def _solve_block(model: SpringModel, r: np.ndarray, S: np.ndarray, max_iterations: int):
+def _solve_block(model: SpringModel, r: np.ndarray, S: np.ndarray, max_iterations: int,
+                 keys: np.ndarray | None = None):
+    """Solve a block of samples from initial active sets S; returns (u, g, keys, its, conv).
+
+    g is the compression of every element at the solution, keys the packed contact sets.
+    """
     m = len(r)
+    S = np.array(S, dtype=bool, copy=True)
+    keys = _set_keys(S) if keys is None else keys.copy()
+    its = np.zeros(m, dtype=np.int64)
+    conv = np.zeros(m, dtype=bool)
+    u = g = None
+    todo = None  # None: every sample of the block
+    for _ in range(min(PLAIN_ITERATIONS, max_iterations)):
+        if todo is None:
+            ut = _solve_sets(model, keys, S, r)
+            gt = _compression(model, ut)
+            u, g = ut, gt
+            its += 1
+            St, kt = S, keys
+        else:
+            St, kt = S[todo], keys[todo]
+            ut = _solve_sets(model, kt, St, r[todo])
+            gt = _compression(model, ut)
+            u[todo], g[todo] = ut, gt
+            its[todo] += 1
+        newS = gt > 0
+        newk = _set_keys(newS)
+        changed = newk != kt
+        if changed.any():
+            # a set that differs only by round-off on an element at the boundary is consistent
+            ci = np.flatnonzero(changed)
+            changed[ci[_consistent(St[ci], gt[ci])]] = False
+        idx = np.arange(m) if todo is None else todo
+        conv[idx[~changed]] = True
+        todo = idx[changed]
+        if todo.size == 0:
+            break
+        S[todo] = newS[changed]
+        keys[todo] = newk[changed]
+    if todo is not None and todo.size:
+        for i in todo:
+            ui, n_it, ok = _newton_safeguarded(model, r[i], u[i], max_iterations - int(its[i]))
+            u[i] = ui
+            its[i] += n_it
+            conv[i] = ok
+        g[todo] = _compression(model, u[todo])
+        S[todo] = g[todo] > 0
+        keys[todo] = _set_keys(S[todo])
+    if model.n > 64:
+        # hashed keys: confirm every converged sample's set exactly (never trust a hash)
+        ok = np.all((g > 0) == S, axis=1)
+        bad = np.flatnonzero(conv & ~ok)
+        if bad.size:
+            bad = bad[~_consistent(S[bad], g[bad])]
+        for i in bad:
+            ui, n_it, ok_i = _newton_safeguarded(model, r[i], u[i], max_iterations)
+            u[i], its[i], conv[i] = ui, its[i] + n_it, ok_i
+            g[i] = _compression(model, ui[None])[0]
+    return u, g, keys, its, conv
+
+
+def solve_per_sample(model: SpringModel, wrench, *, max_iterations: int = 100) -> Solution:
+    """The plain, unoptimised path: one sample at a time, np.linalg.solve in an active-set loop.
+
+    Same method and stopping rule as :func:`solve` (including the line-search
+    safeguard), without vectorisation, caching or warm start. Kept as the
+    reference the optimised path is tested and benchmarked against.
+    """
+    W = np.atleast_2d(np.asarray(wrench, dtype=float))
+    k, b, d0, Ks = model.k, model.b, model.delta0, model.K_s
+    m = len(W)
     u = np.zeros((m, 6))
     its = np.zeros(m, dtype=np.int64)
     conv = np.zeros(m, dtype=bool)
-    todo = np.arange(m)
-    S = S.copy()
-    for _ in range(min(PLAIN_ITERATIONS, max_iterations)):
-        St = S[todo]
-        ut = _solve_sets(model, St, r[todo])
-        its[todo] += 1
-        u[todo] = ut
-        g = model.delta0 + ut @ model.b.T
-        ok = _consistent(St, g)
-        conv[todo[ok]] = True
-        todo = todo[~ok]
-        if todo.size == 0:
-            break
-        S[todo] = g[~ok] > 0
-    for i in todo:
-        ui, n_it, ok = _newton_safeguarded(model, r[i], u[i], max_iterations - int(its[i]))
-        u[i] = ui
-        its[i] += n_it
-        conv[i] = ok
-    return u, its, conv
+    for i in range(m):
+        r = W[i] + model.W_pre
+        S = np.ones(model.n, dtype=bool)
+        ok = False
+        n_it = 0
+        ui = np.zeros(6)
+        while n_it < min(PLAIN_ITERATIONS, max_iterations):
+            kS = k * S
+            H = Ks + (b.T * kS) @ b
+            ui = np.linalg.solve(H, r - (kS * d0) @ b)
+            n_it += 1
+            g = d0 + b @ ui
+            if _consistent(S[None], g[None])[0]:
+                ok = True
+                break
+            S = g > 0
+        if not ok:
+            ui, extra, ok = _newton_safeguarded(model, r, ui, max_iterations - n_it)
+            n_it += extra
+        u[i], its[i], conv[i] = ui, n_it, ok
+    g = d0 + u @ b.T
+    forces = k * np.maximum(g, 0.0)
+    forces[~conv] = np.nan
+    return Solution(u=u, forces=forces, contact=g > 0, iterations=its, converged=conv)
 
 
 def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: bool = True,
@@ -284,6 +434,8 @@ def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: 
     r = W + model.W_pre
 
     u = np.empty((m, 6))
+    forces = np.empty((m, n))
+    contact = np.empty((m, n), dtype=bool)
     its = np.empty(m, dtype=np.int64)
     conv = np.empty(m, dtype=bool)
     block = max(256, _BLOCK_ENTRIES // max(n, 1))
@@ -292,26 +444,34 @@ def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: 
         e = min(m, s + block)
         rb = r[s:e]
         mb = e - s
+        keys0 = None
         if initial_active is not None:
             S0 = np.broadcast_to(np.asarray(initial_active, dtype=bool), (m, n))[s:e]
         elif warm_start and mb >= 4 * _WARM_STRIDE:
-            idx = np.arange(0, mb, _WARM_STRIDE)
+            # neighbour warm start: solve every _WARM_STRIDE-th sample (and the last), then
+            # start each sample from the contact set predicted by interpolating the
+            # displacements of its two solved neighbours
+            idx = np.unique(np.r_[np.arange(0, mb, _WARM_STRIDE), mb - 1])
             Sguess = np.ones((len(idx), n), dtype=bool) if carry is None \
                 else np.broadcast_to(carry, (len(idx), n))
-            us, its_s, conv_s = _solve_block(model, rb[idx], Sguess, max_iterations)
-            Ssub = (model.delta0 + us @ model.b.T) > 0
-            S0 = np.repeat(Ssub, _WARM_STRIDE, axis=0)[:mb]
+            us = _solve_block(model, rb[idx], Sguess, max_iterations)[0]
+            pos = np.arange(mb)
+            seg = np.minimum(np.searchsorted(idx, pos, side="right") - 1, len(idx) - 2)
+            wgt = ((pos - idx[seg]) / (idx[seg + 1] - idx[seg]))[:, None]
+            u_pred = us[seg] * (1.0 - wgt) + us[seg + 1] * wgt
+            S0 = _compression(model, u_pred) > 0
         else:
             S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
-        ub, itb, cb = _solve_block(model, rb, S0, max_iterations)
+        ub, gb, _, itb, cb = _solve_block(model, rb, S0, max_iterations, keys0)
         u[s:e], its[s:e], conv[s:e] = ub, itb, cb
-        carry = (model.delta0 + ub[-1] @ model.b.T) > 0
+        contact[s:e] = gb > 0
+        np.maximum(gb, 0.0, out=gb)
+        np.multiply(gb, model.k, out=forces[s:e])
+        carry = contact[e - 1]
 
-    g = model.delta0 + u @ model.b.T
-    forces = model.k * np.maximum(g, 0.0)
     if not conv.all():
         forces[~conv] = np.nan
-    sol = Solution(u=u, forces=forces, contact=g > 0, iterations=its, converged=conv)
+    sol = Solution(u=u, forces=forces, contact=contact, iterations=its, converged=conv)
     if single:
         sol = Solution(u=u[0], forces=forces[0], contact=sol.contact[0], iterations=its[0],
                        converged=conv[0])
@@ -321,8 +481,12 @@ def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: 
 class Solver:
     """Single-sample solver for control loops, warm-started from the previous call.
 
-    >>> solver = Solver(model)                         # doctest: +SKIP
-    >>> f = solver.forces(np.array([0, 0, 20.0, 0, 0, 0]))   # doctest: +SKIP
+    Keeps the contact set of the last call and the cached factorisation of
+    every contact set met, so a call usually costs one 6x6 product and one
+    consistency check.
+
+    >>> solver = Solver(model)                                # doctest: +SKIP
+    >>> f = solver.forces(np.array([0, 0, 20.0, 0, 0, 0]))    # doctest: +SKIP
 
     Parameters
     ----------
@@ -334,39 +498,51 @@ class Solver:
     def __init__(self, model: SpringModel, max_iterations: int = 100):
         self.model = model
         self.max_iterations = int(max_iterations)
-        self._S = np.ones(model.n, dtype=bool)
-        self._M, self._c = _factors(model, _set_keys(self._S[None])[0], self._S)
+        self._b = model.b
+        self._d0 = model.delta0
+        self._k = model.k
+        self._wpre = model.W_pre
+        S = np.ones(model.n, dtype=bool)
+        self._S = S
+        self._Mt, self._c = _factors(model, _set_keys(S[None])[0], S)
         self.last_iterations = 0
         self.last_converged = True
 
     def displacement(self, wrench) -> np.ndarray:
-        """Cuff displacement u (6,) for one wrench W (6,) [N, N*m]."""
-        model = self.model
-        r = np.asarray(wrench, dtype=float) + model.W_pre
+        """Cuff displacement u (6,) for one wrench W (6,) [N, N*m] in the cuff frame."""
+        r = np.asarray(wrench, dtype=float) + self._wpre
         if r.shape != (6,) or not np.isfinite(r).all():
             raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
-        S, M, c = self._S, self._M, self._c
-        for it in range(1, min(PLAIN_ITERATIONS, self.max_iterations) + 1):
-            u = M @ (r + c)
-            g = model.delta0 + model.b @ u
+        b, d0 = self._b, self._d0
+        S, Mt, c = self._S, self._Mt, self._c
+        limit = min(PLAIN_ITERATIONS, self.max_iterations)
+        for it in range(1, limit + 1):
+            u = (r + c) @ Mt
+            g = b @ u
+            g += d0
             S_new = g > 0
-            if _consistent(S[None], g[None])[0]:
-                self._S, self._M, self._c = S, M, c
+            if np.array_equal(S_new, S) or _consistent(S[None], g[None])[0]:
+                self._S, self._Mt, self._c = S, Mt, c
                 self.last_iterations, self.last_converged = it, True
                 return u
             S = S_new
-            M, c = _factors(model, _set_keys(S[None])[0], S)
-        u, n_it, ok = _newton_safeguarded(model, r, u, self.max_iterations - it)
-        self.last_iterations, self.last_converged = it + n_it, ok
-        S = (model.delta0 + model.b @ u) > 0
+            Mt, c = _factors(self.model, _set_keys(S[None])[0], S)
+        u, n_it, ok = _newton_safeguarded(self.model, r, u, self.max_iterations - limit)
+        self.last_iterations, self.last_converged = limit + n_it, ok
+        S = (d0 + b @ u) > 0
         self._S = S
-        self._M, self._c = _factors(model, _set_keys(S[None])[0], S)
+        self._Mt, self._c = _factors(self.model, _set_keys(S[None])[0], S)
         return u
 
     def forces(self, wrench) -> np.ndarray:
-        """Normal force of every element f_e (n,) [N] for one wrench W (6,) [N, N*m]."""
+        """Normal force of every element f_e (n,) [N] for one wrench W (6,) [N, N*m].
+
+        NaN everywhere if the solver did not converge (see ``last_converged``).
+        """
         u = self.displacement(wrench)
-        f = self.model.k * np.maximum(self.model.delta0 + self.model.b @ u, 0.0)
+        g = self._b @ u
+        g += self._d0
+        f = self._k * np.maximum(g, 0.0)
         if not self.last_converged:
             f[:] = np.nan
         return f

@@ -112,16 +112,24 @@ class SimulationResult:
 
 
 def per_sample_extras(model: SpringModel, absolute_forces, contact, iterations, converged):
-    """The extra columns of the forces table, from absolute (un-zeroed) forces."""
-    pressure = absolute_forces / model.areas / 1000.0                         # kPa
-    with np.errstate(invalid="ignore"):
-        filled = np.where(np.isnan(pressure), -np.inf, pressure)
-    idx = np.argmax(filled, axis=1)
-    peak = np.take_along_axis(pressure, idx[:, None], axis=1)[:, 0]
+    """The extra columns of the forces table, from absolute (un-zeroed) forces.
+
+    Returns ``(extras, peak_index)``; ``extras["peak_pressure_element"]`` is
+    ``(indices, labels)`` (dictionary-encoded).
+    """
+    inv_area_kpa = model._cache.get("__inv_area_kpa__")
+    if inv_area_kpa is None:
+        inv_area_kpa = model._cache["__inv_area_kpa__"] = 1.0 / (1000.0 * model.areas)
+    pressure = absolute_forces * inv_area_kpa                                  # kPa
+    if np.isnan(pressure).any():
+        pressure = np.where(np.isnan(pressure), -np.inf, pressure)
+    idx = np.argmax(pressure, axis=1)
+    peak = pressure[np.arange(len(idx)), idx]
+    peak[~np.asarray(converged, dtype=bool)] = np.nan
     return {
-        "contacts_in_touch": contact.sum(axis=1).astype(np.int64),
+        "contacts_in_touch": np.count_nonzero(contact, axis=1).astype(np.int64),
         "peak_pressure_kPa": peak,
-        "peak_pressure_element": np.asarray(model.labels, dtype=object)[idx],
+        "peak_pressure_element": (idx, tuple(model.labels)),
         "peak_pressure_to_pain_threshold": peak / model.pain_threshold_kpa,
         "solver_iterations": np.asarray(iterations, dtype=np.int64),
         "converged": np.asarray(converged, dtype=bool),
@@ -314,7 +322,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
                 if np.isfinite(pp).any():
                     j = int(np.nanargmax(pp))
                     if pp[j] > peak:
-                        peak, peak_el = float(pp[j]), str(extras["peak_pressure_element"][j])
+                        peak, peak_el = float(pp[j]), model.labels[int(idx[j])]
                         pain = float(extras["peak_pressure_to_pain_threshold"][j])
                 it_max = max(it_max, int(sol.iterations.max()))
                 it_sum += int(sol.iterations.sum())
@@ -331,5 +339,5 @@ def _extra_arrow_types() -> dict:
     import pyarrow as pa
 
     return {"contacts_in_touch": pa.int64(), "peak_pressure_kPa": pa.float64(),
-            "peak_pressure_element": pa.string(), "peak_pressure_to_pain_threshold": pa.float64(),
+            "peak_pressure_element": pa.dictionary(pa.int32(), pa.string()), "peak_pressure_to_pain_threshold": pa.float64(),
             "solver_iterations": pa.int64(), "converged": pa.bool_()}

@@ -1,0 +1,271 @@
+"""Benchmarks of phri-spring (issue 5): every scenario against its baseline, in one run.
+
+Usage (from the repository root, after `pip install -e .`):
+
+    python benchmarks/run_benchmarks.py                 # full run, writes benchmarks/RESULTS.md
+    python benchmarks/run_benchmarks.py --quick         # fewer repeats, no ten-hour log
+
+Logs are generated into a temporary folder (synthetic, fixed seeds, values
+rounded to 4 decimals like a load-cell export). Times are medians over repeats;
+ratios are taken against a baseline measured in the same run, because shared
+machines are noisy. In-process scenarios (solver, single sample, fine meshes)
+run on one core (BLAS limited to one thread, process pinned to one CPU);
+command-line scenarios run `phri` as a user would, as a separate process, and
+report its wall time and peak resident memory (from the kernel's rusage).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_v] = "1"          # in-process scenarios: one core (set before numpy loads)
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+import shutil  # noqa: E402
+import statistics  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIG = ROOT / "configs" / "harmony_upper_arm.yaml"
+COLS = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
+
+
+def child_env():
+    env = dict(os.environ)
+    for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.pop(v, None)
+    return env
+
+
+def make_log(path: Path, n: int, seed: int) -> None:
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    from phri_spring.synthetic.wrench import smooth_random_log
+
+    chunk = 1_000_000
+    writer = None
+    for s in range(0, n, chunk):
+        e = min(n, s + chunk)
+        t, w = smooth_random_log(e - s, seed=seed + s)
+        t = np.round((np.arange(s, e)) / 100.0, 2)
+        data = {"time": t}
+        data.update({c: np.round(w[:, j], 4) for j, c in enumerate(COLS)})
+        table = pa.table(data)
+        if writer is None:
+            writer = (pacsv.CSVWriter(str(path), table.schema) if path.suffix == ".csv"
+                      else pq.ParquetWriter(str(path), table.schema))
+        writer.write_table(table)
+    writer.close()
+
+
+def run_process(cmd, repeats: int):
+    """Median wall time [s] and max peak RSS [MB] of a command over repeats (after one warm-up)."""
+    walls, rss = [], []
+    for i in range(repeats + 1):
+        t0 = time.perf_counter()
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                env=child_env(), cwd=ROOT)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.perf_counter() - t0
+        err = proc.stderr.read().decode()
+        proc.stderr.close()
+        if os.waitstatus_to_exitcode(status) != 0:
+            raise RuntimeError(f"{' '.join(map(str, cmd))} failed: {err}")
+        if i == 0 and repeats > 1:
+            continue  # warm-up (file cache, byte-code)
+        walls.append(wall)
+        rss.append(usage.ru_maxrss / 1024.0)
+    return statistics.median(walls), max(rss), walls
+
+
+def pin_one_cpu():
+    try:
+        cpu = sorted(os.sched_getaffinity(0))[0]
+        os.sched_setaffinity(0, {cpu})
+        return cpu
+    except (AttributeError, OSError):
+        return None
+
+
+def median_time(fn, repeats):
+    ts = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return statistics.median(ts)
+
+
+def fine_model(rows: int, angles: int):
+    """A Harmony-like cuff (245 deg wrap, 75 mm long) cut into rows x angles elements."""
+    from phri_spring.physics.geometry import cuff_geometry
+    from phri_spring.physics.model import build_model, tissue_element_stiffness
+
+    span = 245.0
+    step = span / angles
+    g = cuff_geometry(np.linspace(-0.025, 0.025, rows), 0.045, 0.075 / rows,
+                      57.5 + step / 2, step, angles)
+    th = np.degrees(g.theta)
+    k_c = 1e6 * 0.5 ** (np.abs(((th - 250.0 + 180.0) % 360.0) - 180.0) / 35.0)
+    k_t = tissue_element_stiffness(np.full(g.n, 4242.0), g.areas)
+    return build_model(g, k_t, k_c)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer repeats; skip the ten-hour log")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "RESULTS.md"))
+    ap.add_argument("--workdir", default=None, help="where logs go (default: a temp folder)")
+    args = ap.parse_args()
+    reps = 3 if args.quick else 5
+    work = Path(args.workdir or tempfile.mkdtemp(prefix="phri-bench-"))
+    work.mkdir(parents=True, exist_ok=True)
+    phri = [sys.executable, "-m", "phri_cli.main"]
+    rows = []
+
+    def row(scenario, value, baseline, ratio, target, ok):
+        rows.append((scenario, value, baseline, ratio, target, "yes" if ok else "**no**"))
+        print(f"{scenario}: {value} | {baseline} | {ratio} | {target} | {'met' if ok else 'NOT met'}",
+              flush=True)
+
+    n1h = 360_000
+    log_csv, log_pq = work / "log_1h.csv", work / "log_1h.parquet"
+    print(f"generating logs in {work} ...", flush=True)
+    make_log(log_csv, n1h, seed=1)
+    make_log(log_pq, n1h, seed=1)
+
+    # 1. start-up
+    t_help, _, _ = run_process(phri + ["--help"], 10)
+    t_py, _, _ = run_process([sys.executable, "-c", "pass"], 10)
+    row("`phri --help` start-up", f"{t_help:.3f} s", f"{t_py:.3f} s (bare python)",
+        f"{t_help / t_py:.1f}x", "<= 0.3 s", t_help <= 0.3)
+
+    # 2. end to end, CSV
+    out_csv = work / "forces.csv"
+    t_csv, rss_csv, _ = run_process(phri + ["simulate", str(CONFIG), str(log_csv), "-o",
+                                            str(out_csv), "-q"], reps)
+    base_reps = 1 if args.quick else 3
+    t_base, rss_base, _ = run_process([sys.executable, str(ROOT / "benchmarks" / "baseline_loop.py"),
+                                       str(CONFIG), str(log_csv), str(work / "base.csv")],
+                                      base_reps)
+    row("simulate 1 h @ 100 Hz (360,000 samples), CSV -> CSV", f"{t_csv:.2f} s",
+        f"{t_base:.1f} s (per-sample loop)", f"{t_base / t_csv:.1f}x faster",
+        "<= 1.5 s and >= 9x", t_csv <= 1.5 and t_base / t_csv >= 9)
+    row("  peak memory, CSV -> CSV", f"{rss_csv:.0f} MB", f"{rss_base:.0f} MB", "",
+        "<= 500 MB", rss_csv <= 500)
+
+    # 3. end to end, Parquet
+    t_pq, rss_pq, _ = run_process(phri + ["simulate", str(CONFIG), str(log_pq), "-o",
+                                          str(work / "forces.parquet"), "-q"], reps)
+    row("simulate 1 h, Parquet -> Parquet", f"{t_pq:.2f} s", f"{t_csv:.2f} s (CSV)",
+        f"{t_csv / t_pq:.1f}x", "<= 0.8 s", t_pq <= 0.8)
+    row("  peak memory, Parquet -> Parquet", f"{rss_pq:.0f} MB", "", "", "<= 500 MB",
+        rss_pq <= 500)
+
+    # in-process scenarios: one core
+    cpu = pin_one_cpu()
+    from phri_spring.io.config import load_config
+    from phri_spring.io.logs import read_wrench_log
+    from phri_spring.physics.solver import Solver, solve, solve_per_sample
+    from phri_spring.workflows.common import cuff_wrench, model_from_config
+
+    cfg = load_config(CONFIG)
+    model = model_from_config(cfg)
+    _, w_lc = read_wrench_log(log_pq)
+    W = cuff_wrench(cfg, w_lc)
+
+    # 4. solver alone
+    solve(model, W[:1000])
+    t_solve = median_time(lambda: solve(model, W), reps)
+    n_ref = 20_000
+    t_ref = median_time(lambda: solve_per_sample(model, W[:n_ref]), 1 if args.quick else 3)
+    rate, rate_ref = n1h / t_solve, n_ref / t_ref
+    sol = solve(model, W)
+    ref = solve_per_sample(model, W[:n_ref])
+    same = float(np.max(np.abs(sol.forces[:n_ref] - ref.forces)))
+    row(f"solver alone, 21 elements, 1 h log (CPU {cpu})", f"{rate:,.0f} samples/s",
+        f"{rate_ref:,.0f} samples/s (per-sample loop)", f"{rate / rate_ref:.0f}x",
+        ">= 1,000,000 samples/s", rate >= 1e6)
+    row("  mean solves per sample; max |difference| to the per-sample loop",
+        f"{sol.iterations.mean():.3f}", f"{same:.1e} N", "", "identical to round-off",
+        same < 1e-9)
+
+    # 5. single sample
+    solver = Solver(model)
+    ts = []
+    for i in range(50_000):
+        w = W[i]
+        t0 = time.perf_counter_ns()
+        solver.forces(w)
+        ts.append(time.perf_counter_ns() - t0)
+    med_us = statistics.median(ts) / 1000.0
+    t_one = []
+    for i in range(2000):
+        w = W[i]
+        t0 = time.perf_counter_ns()
+        solve_per_sample(model, w[None])
+        t_one.append(time.perf_counter_ns() - t0)
+    med_one = statistics.median(t_one) / 1000.0
+    row("single-sample call `Solver.forces` (control loop)", f"{med_us:.1f} us",
+        f"{med_one:.1f} us (per-sample loop, 1 sample)", f"{med_one / med_us:.1f}x",
+        "<= 50 us median", med_us <= 50)
+
+    # 6. fine meshes
+    from phri_spring.synthetic.wrench import smooth_random_log
+
+    for (r_, a_, n_, target) in ((10, 36, 100_000, 100_000), (20, 72, 20_000, 20_000)):
+        fm = fine_model(r_, a_)
+        _, Wf = smooth_random_log(n_, seed=7)
+        solve(fm, Wf[:500])
+        t_f = median_time(lambda: solve(fm, Wf), 3)
+        n_b = 1000
+        t_fb = median_time(lambda: solve_per_sample(fm, Wf[:n_b]), 1)
+        rate_f = n_ / t_f
+        row(f"fine mesh {r_} x {a_} ({fm.n} elements)", f"{rate_f:,.0f} samples/s",
+            f"{n_b / t_fb:,.0f} samples/s (per-sample loop)", f"{rate_f / (n_b / t_fb):.0f}x",
+            f">= {target:,} samples/s", rate_f >= target)
+
+    # 7. ten-hour log: streaming in bounded memory, linear time
+    if not args.quick:
+        log10 = work / "log_10h.csv"
+        make_log(log10, 10 * n1h, seed=11)
+        t10, rss10, _ = run_process(phri + ["simulate", str(CONFIG), str(log10), "-o",
+                                            str(work / "forces_10h.csv"), "-q"], 1)
+        row("simulate 10 h (3,600,000 samples), CSV -> CSV", f"{t10:.1f} s",
+            f"{t_csv:.2f} s (1 h)", f"{t10 / t_csv:.1f}x for 10x the samples",
+            "linear (about 10x)", t10 / t_csv <= 11.5)
+        row("  peak memory, 10 h", f"{rss10:.0f} MB", f"{rss_csv:.0f} MB (1 h)", "",
+            "<= 500 MB", rss10 <= 500)
+        (work / "log_10h.csv").unlink()
+
+    import numpy  # noqa: F401
+    import pyarrow
+
+    header = (f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+              f"{platform.python_version()}, numpy {np.__version__}, pyarrow {pyarrow.__version__}."
+              f" {time.strftime('%Y-%m-%d')}.")
+    lines = ["| scenario | result | baseline (same run) | ratio | target | met |",
+             "|---|---|---|---|---|---|"]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    text = (f"{header}\n\nCommand: `python benchmarks/run_benchmarks.py"
+            f"{' --quick' if args.quick else ''}`\n\n" + "\n".join(lines) + "\n")
+    Path(args.out).write_text(text)
+    print("\n" + text)
+    print(json.dumps({"workdir": str(work)}))
+    if args.workdir is None:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()
