@@ -1,0 +1,566 @@
+"""``phri compare`` as library calls: rigid- and compliant-arm predictions against a sensorized cuff.
+
+Method (SPEC section 7, paper sections III-C and IV-B):
+
+1. Every trial table is reduced to one mean wrench and one mean load per
+   element for each condition (all rows of that condition).
+2. For each arm model (``rigid``, ``compliant``) the spring network is solved
+   at each condition's mean wrench (converted from load-cell readings to the
+   cuff wrench with the config's load-cell pose, units and convention).
+3. Zeroing, each side on its own baseline: measured loads minus the measured
+   loads of the trial's baseline condition; simulated loads minus the
+   simulated loads at the baseline condition's mean wrench.
+4. Per trial, condition and arm: RMSE = sqrt(sum_e (F_expt,e - F_sim,e)^2 / N)
+   over the N elements (paper Eq. 1).
+5. Per experiment, direction, condition and arm: mean RMSE over trials and its
+   standard error (sample SD, ddof = 1, / sqrt(n)).
+
+The baseline condition is left out of the RMSE tables and figures (its zeroed
+loads are 0 on both sides by construction, so its RMSE is 0, and the paper's
+Fig. 7 shows only the loaded conditions); it stays in ``loads.csv`` and
+``conditions.csv``.
+
+- :func:`compare` does the analysis and returns a :class:`CompareResult`.
+- :func:`write_compare` writes its tables, figures and ``report.md`` into a
+  folder atomically (a failed run leaves no folder behind).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Optional, Sequence, Union
+
+import numpy as np
+
+from ..errors import ConvergenceError, DataError, UsageError
+from ..io.atomic import atomic_directory, check_output_path
+from ..io.config import Config, load_config, resolve_stiffness
+from ..io.experiment import WRENCH_COLUMNS, Manifest, TrialData, load_manifest, read_trial
+from ..physics.metrics import mean_and_se, rmse as rmse_eq1, zero_on
+from ..physics.solver import solve
+from .common import ARMS, cuff_wrench, model_from_config
+
+__all__ = ["compare", "write_compare", "CompareResult", "TrialComparison", "CompareOutputs",
+           "parse_arms", "summary_markdown", "DEFAULT_ARMS", "RMSE_COLUMNS", "SUMMARY_COLUMNS"]
+
+#: the arm models compared by default, in the paper's order
+DEFAULT_ARMS = ("rigid", "compliant")
+#: columns of rmse.csv (SPEC section 8), then load_N
+RMSE_COLUMNS = ("experiment", "direction", "condition", "trial", "arm", "rmse_N")
+#: columns of summary.csv (SPEC section 8), then load_N
+SUMMARY_COLUMNS = ("experiment", "direction", "condition", "arm", "mean_rmse_N", "se_rmse_N",
+                   "n_trials")
+
+
+def parse_arms(arms: Union[str, Sequence[str], None]) -> tuple:
+    """``"rigid,compliant"`` or a sequence -> a tuple of distinct arm names.
+
+    Raises
+    ------
+    UsageError
+        For an unknown, repeated or missing arm (key ``--arms``).
+    """
+    if arms is None:
+        return DEFAULT_ARMS
+    items = [a.strip() for a in arms.split(",")] if isinstance(arms, str) else \
+        [str(a).strip() for a in arms]
+    items = [a for a in items if a]
+    if not items:
+        raise UsageError("expected at least one of rigid, compliant", key="--arms")
+    for a in items:
+        if a not in ARMS:
+            raise UsageError(f"unknown arm model {a!r}; expected rigid, compliant or both "
+                             "(comma-separated)", key="--arms")
+    if len(set(items)) != len(items):
+        raise UsageError(f"arm models repeated in {','.join(items)}; expected each once",
+                         key="--arms")
+    return tuple(items)
+
+
+@dataclass(eq=False)
+class TrialComparison:
+    """One trial's conditions, measured and simulated (c conditions, n elements).
+
+    Attributes
+    ----------
+    data : TrialData
+        The trial's condition means as read.
+    measured : ndarray, shape (c, n)
+        Zeroed measured loads [N].
+    simulated : dict of str -> ndarray, shape (c, n)
+        Zeroed simulated loads [N] per arm model.
+    simulated_abs : dict of str -> ndarray, shape (c, n)
+        Absolute simulated loads [N] (preload included) per arm model.
+    rmse : dict of str -> ndarray, shape (c,)
+        RMSE [N] per arm model (0 at the baseline).
+    cuff_wrench : ndarray, shape (c, 6)
+        Mean wrench on the cuff [N, N*m], cuff frame.
+    load_n : ndarray, shape (c,)
+        |mean force - baseline's mean force| [N].
+    """
+
+    data: TrialData
+    measured: np.ndarray
+    simulated: dict
+    simulated_abs: dict
+    rmse: dict
+    cuff_wrench: np.ndarray
+    load_n: np.ndarray
+
+    @property
+    def spec(self):
+        return self.data.spec
+
+    @property
+    def conditions(self) -> tuple:
+        return self.data.conditions
+
+    @property
+    def baseline_index(self) -> int:
+        return self.data.baseline_index
+
+    @property
+    def zeroed_wrench(self) -> np.ndarray:
+        """Mean load-cell reading minus the baseline's (log units), shape (c, 6)."""
+        return self.data.wrench - self.data.wrench[self.baseline_index]
+
+
+@dataclass(eq=False)
+class CompareResult:
+    """Everything :func:`compare` computed.
+
+    DataFrames (units in the column names):
+
+    - ``rmse``: experiment, direction, condition, trial, arm, rmse_N, load_N
+    - ``summary``: experiment, direction, condition, arm, mean_rmse_N,
+      se_rmse_N, n_trials, load_N
+    - ``loads``: one row per trial, condition and element (baseline included):
+      zeroed and absolute measured and simulated loads and the condition's mean wrench
+    - ``conditions``: one row per trial and condition (baseline included):
+      samples, mean and zeroed wrench, load_N and the RMSE of each arm
+    """
+
+    config: Config
+    manifest: Manifest
+    arms: tuple
+    trials: list
+    rmse: "object"
+    summary: "object"
+    loads: "object"
+    conditions: "object"
+    tissue_stiffness_file: Optional[Path] = None
+    input_paths: tuple = field(default_factory=tuple)
+
+    @property
+    def labels(self) -> tuple:
+        return tuple(self.config.labels)
+
+
+@dataclass
+class CompareOutputs:
+    """What :func:`write_compare` wrote (paths inside ``outdir``)."""
+
+    outdir: Path
+    files: list
+
+
+def _with_tissue(cfg: Config, tissue_stiffness) -> Config:
+    path = Path(tissue_stiffness)
+    if not path.is_file():
+        raise DataError("file not found; expected a tissue stiffness CSV written by "
+                        "'phri fit-stiffness'", file=path, key="--tissue-stiffness")
+    k = resolve_stiffness(str(path.resolve()), cfg.n_rows, cfg.angle_count, cfg.labels,
+                          path=path, key="--tissue-stiffness", allow_inf=False)
+    return dataclasses.replace(cfg, tissue_stiffness=k, tissue_basis="indenter")
+
+
+def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT_ARMS,
+            tissue_stiffness=None, columns: Optional[dict] = None) -> CompareResult:
+    """Compare the rigid- and compliant-arm predictions with a sensorized-cuff experiment.
+
+    Parameters
+    ----------
+    config : Config or path
+        The model config (geometry, load cell, stiffness, strap).
+    manifest : Manifest or path
+        The experiment manifest (YAML; see :mod:`phri_spring.io.experiment`).
+    arms : str or sequence of str
+        Arm models to compare, among ``rigid`` and ``compliant``.
+    tissue_stiffness : path, optional
+        A ``phri fit-stiffness`` CSV (indenter basis) replacing the config's
+        tissue stiffness map.
+    columns : dict, optional
+        Map from spec names (``time``, ``Fx`` ...) to the trial tables' names;
+        merged over the config's ``load_cell.columns``.
+
+    Returns
+    -------
+    CompareResult
+
+    Raises
+    ------
+    ConfigError, DataError
+        Bad config, manifest or trial data (one line naming the file and the
+        key, column or condition).
+    ConvergenceError
+        If the solver fails at some condition's wrench.
+    UsageError
+        For unknown arm models.
+    """
+    import pandas as pd
+
+    arms = parse_arms(arms)
+    cfg = config if isinstance(config, Config) else load_config(config)
+    tissue_file = None
+    if tissue_stiffness is not None:
+        tissue_file = Path(tissue_stiffness)
+        cfg = _with_tissue(cfg, tissue_file)
+    man = manifest if isinstance(manifest, Manifest) else load_manifest(manifest)
+    models = {arm: model_from_config(cfg, arm) for arm in arms}
+    colmap = dict(cfg.log_columns)
+    colmap.update(columns or {})
+    datas = [read_trial(t, cfg.labels, columns=colmap, row_labels=cfg.row_labels)
+             for t in man.trials]
+    if not any(len(d.conditions) > 1 for d in datas):
+        raise DataError("no trial has a condition besides its baseline; nothing to compare",
+                        file=man.path, key="trials")
+
+    # one solve per arm on every condition of every trial, stacked
+    W_lc = np.vstack([d.wrench for d in datas])
+    W = cuff_wrench(cfg, W_lc)
+    bounds = np.cumsum([0] + [len(d.conditions) for d in datas])
+    sims = {}
+    for arm, model in models.items():
+        sol = solve(model, W, max_iterations=cfg.max_iterations)
+        if not np.all(sol.converged):
+            i = int(np.argmin(sol.converged))
+            t = int(np.searchsorted(bounds, i, side="right") - 1)
+            d = datas[t]
+            raise ConvergenceError(f"the {arm}-arm solver did not converge at the mean wrench of "
+                                   f"condition {d.conditions[i - bounds[t]]!r} "
+                                   f"(W = {np.round(W[i], 4).tolist()})", file=d.spec.file,
+                                   key="condition")
+        sims[arm] = sol.forces
+
+    trials = []
+    for t, d in enumerate(datas):
+        sl = slice(bounds[t], bounds[t + 1])
+        b = d.baseline_index
+        meas = zero_on(d.loads, d.loads[b])
+        sim_abs = {arm: sims[arm][sl] for arm in arms}
+        sim = {arm: zero_on(f, f[b]) for arm, f in sim_abs.items()}
+        err = {arm: rmse_eq1(meas, s) for arm, s in sim.items()}
+        Wc = W[sl]
+        load = np.linalg.norm(Wc[:, :3] - Wc[b, :3], axis=1)
+        trials.append(TrialComparison(data=d, measured=meas, simulated=sim, simulated_abs=sim_abs,
+                                      rmse=err, cuff_wrench=Wc, load_n=load))
+
+    rmse_df = _rmse_frame(trials, arms, pd)
+    summary_df = _summary_frame(rmse_df, arms, pd)
+    loads_df = _loads_frame(trials, arms, cfg, pd)
+    cond_df = _conditions_frame(trials, arms, pd)
+    inputs = [cfg.path, man.path] + [t.file for t in man.trials]
+    if tissue_file is not None:
+        inputs.append(tissue_file)
+    return CompareResult(config=cfg, manifest=man, arms=arms, trials=trials, rmse=rmse_df,
+                         summary=summary_df, loads=loads_df, conditions=cond_df,
+                         tissue_stiffness_file=tissue_file,
+                         input_paths=tuple(p for p in inputs if p is not None))
+
+
+# --------------------------------------------------------------------------- tables
+def _rmse_frame(trials, arms, pd):
+    rows = []
+    for tc in trials:
+        s = tc.spec
+        for j, c in enumerate(tc.conditions):
+            if j == tc.baseline_index:
+                continue
+            for arm in arms:
+                rows.append((s.experiment, s.direction, c, s.trial, arm, float(tc.rmse[arm][j]),
+                             float(tc.load_n[j])))
+    return pd.DataFrame(rows, columns=list(RMSE_COLUMNS) + ["load_N"])
+
+
+def _summary_frame(rmse_df, arms, pd):
+    rows = []
+    if len(rmse_df):
+        groups = list(dict.fromkeys(zip(rmse_df["experiment"], rmse_df["direction"])))
+        for exp, direc in groups:
+            g = rmse_df[(rmse_df["experiment"] == exp) & (rmse_df["direction"] == direc)]
+            for cond in dict.fromkeys(g["condition"]):
+                gc = g[g["condition"] == cond]
+                for arm in arms:
+                    v = gc.loc[gc["arm"] == arm, "rmse_N"].to_numpy(dtype=float)
+                    mean, se = mean_and_se(v)
+                    load = float(np.mean(gc.loc[gc["arm"] == arm, "load_N"]))
+                    rows.append((exp, direc, cond, arm, float(mean), float(se), int(v.size), load))
+    return pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS) + ["load_N"])
+
+
+def _loads_frame(trials, arms, cfg, pd):
+    n = len(cfg.labels)
+    n_ang = cfg.angle_count
+    parts = []
+    for tc in trials:
+        s, d = tc.spec, tc.data
+        c = len(tc.conditions)
+        rep = np.repeat(np.arange(c), n)
+        cols = {
+            "experiment": np.full(c * n, s.experiment, dtype=object),
+            "direction": np.full(c * n, s.direction, dtype=object),
+            "trial": np.full(c * n, s.trial, dtype=object),
+            "condition": np.asarray(tc.conditions, dtype=object)[rep],
+            "is_baseline": rep == tc.baseline_index,
+            "element": np.tile(np.asarray(cfg.labels, dtype=object), c),
+            "row": np.tile(np.repeat(np.asarray(cfg.row_labels, dtype=object), n_ang), c),
+            "location": np.tile(np.tile(np.arange(n_ang), cfg.n_rows), c),
+            "measured_N": tc.measured.ravel(),
+        }
+        for arm in arms:
+            cols[f"{arm}_N"] = tc.simulated[arm].ravel()
+        cols["measured_abs_N"] = d.loads.ravel()
+        for arm in arms:
+            cols[f"{arm}_abs_N"] = tc.simulated_abs[arm].ravel()
+        for k, name in enumerate(WRENCH_COLUMNS):
+            cols[name] = d.wrench[rep, k]
+        cols["load_N"] = tc.load_n[rep]
+        cols["n_samples"] = d.n_samples[rep]
+        parts.append(pd.DataFrame(cols))
+    df = pd.concat(parts, ignore_index=True)
+    if all(isinstance(tc.spec.trial, int) for tc in trials):
+        df["trial"] = df["trial"].astype(np.int64)
+    return df
+
+
+def _conditions_frame(trials, arms, pd):
+    rows = []
+    for tc in trials:
+        s, d = tc.spec, tc.data
+        zw = tc.zeroed_wrench
+        for j, c in enumerate(tc.conditions):
+            row = {"experiment": s.experiment, "direction": s.direction, "trial": s.trial,
+                   "condition": c, "is_baseline": j == tc.baseline_index,
+                   "n_samples": int(d.n_samples[j])}
+            row.update({name: float(d.wrench[j, k]) for k, name in enumerate(WRENCH_COLUMNS)})
+            row.update({f"{name}_zeroed": float(zw[j, k])
+                        for k, name in enumerate(WRENCH_COLUMNS)})
+            row["load_N"] = float(tc.load_n[j])
+            row.update({f"rmse_{arm}_N": float(tc.rmse[arm][j]) for arm in arms})
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+# --------------------------------------------------------------------------- report
+def _fmt(x, digits=2) -> str:
+    return "n/a" if x is None or not np.isfinite(x) else f"{x:.{digits}f}"
+
+
+def summary_markdown(result: CompareResult) -> str:
+    """The summary as a Markdown table: one line per experiment, direction and condition.
+
+    Columns: experiment, direction, condition, load [N], then per arm model
+    ``<arm> RMSE [N]`` as mean +- standard error, and the number of trials.
+    """
+    s = result.summary
+    arms = result.arms
+    head = ["experiment", "direction", "condition", "load [N]"] + \
+        [f"{a} RMSE [N], mean ± SE" for a in arms] + ["trials"]
+    lines = ["| " + " | ".join(head) + " |",
+             "|" + "|".join(["---"] * 3 + ["---:"] * (len(arms) + 2)) + "|"]
+    keys = list(dict.fromkeys(zip(s["experiment"], s["direction"], s["condition"])))
+    for exp, direc, cond in keys:
+        g = s[(s["experiment"] == exp) & (s["direction"] == direc) & (s["condition"] == cond)]
+        cells = [str(exp), str(direc), str(cond), _fmt(float(g["load_N"].iloc[0]), 1)]
+        n = 0
+        for arm in arms:
+            a = g[g["arm"] == arm]
+            if len(a):
+                cells.append(f"{_fmt(float(a['mean_rmse_N'].iloc[0]))} ± "
+                             f"{_fmt(float(a['se_rmse_N'].iloc[0]))}")
+                n = max(n, int(a["n_trials"].iloc[0]))
+            else:
+                cells.append("")
+        cells.append(str(n))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _rmse_markdown(result: CompareResult) -> str:
+    arms = result.arms
+    head = ["experiment", "direction", "trial", "condition", "load [N]"] + \
+        [f"{a} RMSE [N]" for a in arms]
+    lines = ["| " + " | ".join(head) + " |",
+             "|" + "|".join(["---"] * 4 + ["---:"] * (len(arms) + 1)) + "|"]
+    for tc in result.trials:
+        s = tc.spec
+        for j, c in enumerate(tc.conditions):
+            if j == tc.baseline_index:
+                continue
+            cells = [s.experiment, s.direction, str(s.trial), c, _fmt(tc.load_n[j], 1)] + \
+                [_fmt(float(tc.rmse[a][j])) for a in arms]
+            lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def _slug(*parts) -> str:
+    return "_".join(_SAFE.sub("-", str(p)).strip("-") or "x" for p in parts)
+
+
+def _unique(name: str, used: set) -> str:
+    out, k = name, 2
+    while out in used:
+        out = f"{name}-{k}"
+        k += 1
+    used.add(out)
+    return out
+
+
+def _heat_title(tc: TrialComparison, j: int, cfg: Config) -> str:
+    s = tc.spec
+    zw = tc.zeroed_wrench[j]
+    fu, mu = cfg.force_unit, cfg.moment_unit.replace("*", "·")
+    return (f"{s.experiment} {s.direction}, trial {s.trial}, {tc.conditions[j]} "
+            f"({tc.load_n[j]:.1f} N), zeroed on {s.baseline}\n"
+            f"load-cell wrench, zeroed: Fx {zw[0]:+.2f}, Fy {zw[1]:+.2f}, Fz {zw[2]:+.2f} {fu}; "
+            f"Mx {zw[3]:+.3f}, My {zw[4]:+.3f}, Mz {zw[5]:+.3f} {mu}")
+
+
+def write_compare(result: CompareResult, outdir, *, figures: bool = True,
+                  dpi: Optional[int] = None) -> CompareOutputs:
+    """Write the tables, figures and report of a comparison into ``outdir``.
+
+    Files: ``rmse.csv``, ``summary.csv``, ``loads.csv``, ``conditions.csv``,
+    ``report.md`` and, with ``figures``, ``rmse_bars.png`` (Fig. 7),
+    ``heatmaps/<experiment>_<direction>_<trial>_<condition>.png`` for every
+    trial and non-baseline condition (Fig. 8b) and
+    ``wrench/<experiment>_<direction>_<trial>.png`` (Fig. 8a).
+
+    Everything is written into a temporary folder beside ``outdir`` that
+    replaces it at the end: a failed run leaves nothing behind.
+
+    Raises
+    ------
+    UsageError
+        If ``outdir`` is (or contains) an input, is a file, or its parent folder
+        does not exist.
+    """
+    from ..reports.compare_figures import (DEFAULT_DPI, heatmap_figure, rmse_bars_figure,
+                                           save_figure, wrench_figure)
+
+    dpi = DEFAULT_DPI if dpi is None else int(dpi)
+    outdir = Path(outdir)
+    check_output_path(outdir, result.input_paths, option="-o/--output", directory=True)
+    if outdir.exists() and not outdir.is_dir():
+        raise UsageError(f"output {str(outdir)!r} is a file; expected a folder",
+                         key="-o/--output")
+    cfg = result.config
+    written = []
+    fig_index = []
+    with atomic_directory(outdir) as tmp:
+        def csv(df, name):
+            df.to_csv(tmp / name, index=False, float_format="%.10g")
+            written.append(outdir / name)
+
+        csv(result.rmse, "rmse.csv")
+        csv(result.summary, "summary.csv")
+        csv(result.loads, "loads.csv")
+        csv(result.conditions, "conditions.csv")
+        if figures:
+            if len(result.summary):
+                fig = rmse_bars_figure(result.summary, result.rmse, arms=result.arms)
+                save_figure(fig, tmp / "rmse_bars.png", dpi)
+                written.append(outdir / "rmse_bars.png")
+            (tmp / "heatmaps").mkdir()
+            (tmp / "wrench").mkdir()
+            used_h, used_w = set(), set()
+            for tc in result.trials:
+                s = tc.spec
+                wname = _unique(_slug(s.experiment, s.direction, s.trial), used_w) + ".png"
+                d = tc.data
+                fig = wrench_figure(d.time, d.wrench_series, d.condition_series,
+                                    title=f"{s.experiment} {s.direction}, trial {s.trial}: "
+                                          "load-cell wrench",
+                                    force_unit=cfg.force_unit, moment_unit=cfg.moment_unit)
+                save_figure(fig, tmp / "wrench" / wname, dpi)
+                written.append(outdir / "wrench" / wname)
+                heat = []
+                for j, c in enumerate(tc.conditions):
+                    if j == tc.baseline_index:
+                        continue
+                    hname = _unique(_slug(s.experiment, s.direction, s.trial, c), used_h) + ".png"
+                    fig = heatmap_figure(tc.measured[j],
+                                         {a: tc.simulated[a][j] for a in result.arms},
+                                         row_labels=cfg.row_labels, n_angles=cfg.angle_count,
+                                         title=_heat_title(tc, j, cfg),
+                                         rmse={a: float(tc.rmse[a][j]) for a in result.arms})
+                    save_figure(fig, tmp / "heatmaps" / hname, dpi)
+                    written.append(outdir / "heatmaps" / hname)
+                    heat.append((c, f"heatmaps/{hname}"))
+                fig_index.append((s, f"wrench/{wname}", heat))
+        (tmp / "report.md").write_text(_report(result, fig_index, figures), encoding="utf-8")
+        written.append(outdir / "report.md")
+    return CompareOutputs(outdir=outdir, files=written)
+
+
+def _report(result: CompareResult, fig_index, figures: bool) -> str:
+    cfg, man = result.config, result.manifest
+    bases = sorted({t.spec.baseline for t in result.trials})
+    tissue = (f"`{result.tissue_stiffness_file}` (replacing the config's map)"
+              if result.tissue_stiffness_file else "from the config")
+    lines = [
+        "# phri compare: rigid- vs compliant-arm predictions against the sensorized cuff",
+        "",
+        f"- config: `{cfg.path}`" + (f" ({cfg.name})" if cfg.name else ""),
+        f"- experiment manifest: `{man.path}`" +
+        (f": {man.description.strip()}" if man.description.strip() else ""),
+        f"- trials: {len(result.trials)}; elements: {len(cfg.labels)} "
+        f"({cfg.labels[0]}..{cfg.labels[-1]}); arm models: {', '.join(result.arms)}",
+        f"- tissue stiffness: {tissue}",
+        f"- baseline condition(s): {', '.join(bases)}",
+        "",
+        "Method: each condition's measured loads and wrench are the means over its rows; the "
+        "simulated loads are the model's output at that mean wrench. Both sides are zeroed on "
+        "their own baseline condition (measured minus measured at the baseline, simulated minus "
+        "simulated at the baseline's mean wrench). RMSE = sqrt(sum_e (F_expt,e - F_sim,e)^2 / N) "
+        f"with N = {len(cfg.labels)} elements (paper Eq. 1); SE = sample SD / sqrt(n trials). "
+        "The baseline condition is not listed: its zeroed loads are 0 on both sides, so its RMSE "
+        "is 0 by construction (it is kept in `loads.csv` and `conditions.csv`). The load is the "
+        "magnitude of the condition's mean force minus the baseline's.",
+        "",
+        "## Summary (mean ± standard error over trials)",
+        "",
+        summary_markdown(result),
+        "",
+    ]
+    if figures and len(result.summary):
+        lines += ["![RMSE per condition, rigid vs compliant arm (Fig. 7)](rmse_bars.png)", ""]
+    lines += ["## RMSE per trial", "", _rmse_markdown(result), ""]
+    if figures:
+        lines += ["## Figures per trial", "",
+                  "Heat maps: zeroed loads measured | rigid | compliant, rows by angular "
+                  "locations, one colour scale per figure (Fig. 8b). Wrench: the load-cell "
+                  "reading over time with the condition windows shaded (Fig. 8a).", "",
+                  "| experiment | direction | trial | wrench | heat maps |",
+                  "|---|---|---|---|---|"]
+        for s, wpath, heat in fig_index:
+            links = ", ".join(f"[{c}]({p})" for c, p in heat)
+            lines.append(f"| {s.experiment} | {s.direction} | {s.trial} | [wrench]({wpath}) | "
+                         f"{links} |")
+        lines.append("")
+    lines += ["## Files", "",
+              "- `rmse.csv`: experiment, direction, condition, trial, arm, rmse_N [N], load_N [N]",
+              "- `summary.csv`: experiment, direction, condition, arm, mean_rmse_N [N], "
+              "se_rmse_N [N], n_trials, load_N [N]",
+              "- `loads.csv`: per trial, condition and element: zeroed measured_N and "
+              "<arm>_N, absolute *_abs_N [N], the condition's mean wrench Fx..Mz "
+              f"[{cfg.force_unit}, {cfg.moment_unit}], load_N, n_samples",
+              "- `conditions.csv`: per trial and condition: n_samples, mean and zeroed wrench, "
+              "load_N, rmse_<arm>_N", ""]
+    return "\n".join(lines)
