@@ -53,6 +53,7 @@ def unseen(tmp_path_factory):
     write_trials(trials, base / "folder", layout="folder")
     write_trials(trials, base / "long.csv", layout="long")
     write_trials(trials, base / "long_m.csv", layout="long", displacement_unit="m")
+    write_trials(trials[:8], base / "folder_m", layout="folder", displacement_unit="m")
     return truth, base, trials
 
 
@@ -90,6 +91,14 @@ def test_recovers_unseen_stiffness_within_one_percent(unseen, tmp_path, layout, 
     assert k.mean() == pytest.approx(4242.0, rel=0.01)
     # std over the two trials is a sample SD: |k1 - k2| / sqrt(2), finite
     assert np.isfinite(table["std_N_per_m"]).all()
+
+
+def test_folder_in_metres(unseen, tmp_path):
+    truth, base, _ = unseen
+    out = tmp_path / "k.csv"
+    res = run(base / "folder_m", "-o", out, "--displacement-unit", "m")
+    assert res.exit_code == 0, res.output
+    assert_recovered(out, dict(list(truth.items())[:4]))
 
 
 def test_bundled_example_recovers_its_truth():
@@ -308,6 +317,40 @@ def test_plots_written_to_dir(unseen, tmp_path):
     tt = pd.read_csv(trials)
     assert len(tt) == 42 and {"location", "trial", "stiffness_N_per_m", "r2_min",
                               "onset_time_s", "zero_level_N"} <= set(tt.columns)
+
+
+def test_failure_while_plotting_leaves_nothing(unseen, tmp_path, monkeypatch):
+    import phri_spring.workflows.fit_stiffness as wf
+
+    _, base, _ = unseen
+
+    def boom(*args, **kwargs):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(wf, "_save_plots", boom)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    res = run(base / "folder", "-o", out_dir / "k.csv", "--plots", out_dir / "figs",
+              "--trials-csv", out_dir / "t.csv")
+    assert res.exit_code == 1 and one_line(res.stderr)
+    assert list(out_dir.iterdir()) == []
+
+
+def test_failure_while_writing_the_csv_leaves_nothing(unseen, tmp_path, monkeypatch):
+    import phri_spring.workflows.fit_stiffness as wf
+
+    _, base, _ = unseen
+
+    def half_written(table, path, **kwargs):
+        Path(path).write_text("location,row\nA0,")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(wf, "write_stiffness_csv", half_written)
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    res = run(base / "folder", "-o", out_dir / "k.csv", "--plots", out_dir / "figs")
+    assert res.exit_code == 1 and one_line(res.stderr)
+    assert list(out_dir.iterdir()) == []
 
 
 def test_figures_are_figure_objects(unseen):

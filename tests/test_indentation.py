@@ -238,6 +238,19 @@ def test_turning_points_ignore_encoder_steps_and_tremor():
         assert a <= hf <= hl < b <= a2 + 1
 
 
+def test_hand_hesitation_does_not_split_a_push():
+    # loading to 4 mm with a 0.2 mm back-off at 2 mm (more than encoder steps and tremor,
+    # less than 10 % of the depth): one push, one unloading stroke
+    t, d = profile([(0, -1 * MM), (4, -1 * MM), (5, 0), (6, 2 * MM), (6.2, 1.8 * MM),
+                    (7.5, 4 * MM), (9, -1 * MM), (10, -1 * MM)], 100.0)
+    f = 4000.0 * np.maximum(d, 0)
+    fit = fit_trial(t, d, f)
+    assert fit.n_strokes == 1
+    assert fit.stiffness == pytest.approx(4000.0, rel=1e-9)
+    # with an explicit small reversal the back-off is a stroke of its own
+    assert fit_trial(t, d, f, reversal=0.1 * MM).n_strokes == 2
+
+
 def test_split_strokes_single_push_bounds():
     x = np.array([0, 0, 1, 2, 3, 4, 4, 3, 2, 1, 0, 0.0])
     assert split_strokes(x, 1.5) == [(0, 5, 6, 12)]
