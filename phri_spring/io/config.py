@@ -127,20 +127,30 @@ class _LoadCell(_Strict):
         return self
 
 
+def _not_a_bool(v):
+    if isinstance(v, bool):
+        raise ValueError(f"expected a stiffness [N/m], got {v!r}")
+    return v
+
+
 class _Tissue(_Strict):
     stiffness: _StiffnessValue
     basis: Literal["indenter", "element"] = "indenter"
-    indenter_diameter: float = Field(default=0.009, gt=0)
+    indenter_diameter: float = Field(default=0.009, gt=0, allow_inf_nan=False)
     poisson_ratio: float = Field(default=0.45, gt=-1.0, le=0.5)
+
+    _stiffness_not_bool = field_validator("stiffness", mode="before")(_not_a_bool)
 
 
 class _Cuff(_Strict):
     stiffness: _StiffnessValue
 
+    _stiffness_not_bool = field_validator("stiffness", mode="before")(_not_a_bool)
+
 
 class _Interface(_Strict):
-    pain_threshold_kpa: float = Field(default=120.0, gt=0)
-    shear_ratio: Optional[float] = Field(default=None, gt=0)
+    pain_threshold_kpa: float = Field(default=120.0, gt=0, allow_inf_nan=False)
+    shear_ratio: Optional[float] = Field(default=None, gt=0, allow_inf_nan=False)
 
 
 class _Strap(_Strict):
@@ -313,7 +323,7 @@ def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, k
             what = "a positive stiffness (.inf allowed)" if allow_inf else \
                 "a positive finite stiffness"
             lab = f" at {labels[i]}" if arr.size == n else ""
-            raise ConfigError(f"expected {what} [N/m]{lab}, got {arr.ravel()[i]!r}",
+            raise ConfigError(f"expected {what} [N/m]{lab}, got {float(arr.ravel()[i])!r}",
                               file=path, key=k)
         return arr
 
@@ -442,6 +452,9 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
             raise ConfigError("expected a proper rotation matrix (orthonormal, det +1; "
                               "v_cuff = R v_lc)", file=path, key="load_cell.rotation")
     elif lc.euler_xyz_deg is not None:
+        if not all(math.isfinite(a) for a in lc.euler_xyz_deg):
+            raise ConfigError(f"expected finite angles [deg], got {list(lc.euler_xyz_deg)}",
+                              file=path, key="load_cell.euler_xyz_deg")
         R = rotation_from_euler_xyz(lc.euler_xyz_deg)
     else:
         R = np.eye(3)
@@ -460,6 +473,12 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     for k in ("tension",):
         if not math.isfinite(getattr(st, k)):
             raise ConfigError("expected a finite tension [N]", file=path, key="strap.tension")
+    if st.handle_angles is not None and not all(math.isfinite(a) for a in st.handle_angles):
+        raise ConfigError(f"expected two finite angles [deg], got {list(st.handle_angles)}",
+                          file=path, key="strap.handle_angles")
+    if st.axial_position is not None and not math.isfinite(st.axial_position):
+        raise ConfigError(f"expected a finite axial position [m], got {st.axial_position!r}",
+                          file=path, key="strap.axial_position")
 
     return Config(
         path=Path(path) if path else None, name=root.name, row_labels=row_labels, row_x=row_x,
