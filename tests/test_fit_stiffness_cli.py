@@ -101,19 +101,31 @@ def test_folder_in_metres(unseen, tmp_path):
     assert_recovered(out, dict(list(truth.items())[:4]))
 
 
-def test_bundled_example_recovers_its_truth():
+def test_bundled_example_recovers_its_truth(tmp_path):
     truth = pd.read_csv(EXAMPLE_TRUTH)
     assert (EXAMPLE / "TRUTH.md").exists()        # ignored by the reader (not *.csv)
     assert len(list(EXAMPLE.glob("*.csv"))) == 42
-    out_dir = Path(pytest.importorskip("tempfile").mkdtemp())
-    try:
-        res = run(EXAMPLE, "-o", out_dir / "k.csv")
-        assert res.exit_code == 0, res.output
-        assert_recovered(out_dir / "k.csv",
-                         dict(zip(truth["location"], truth["true_stiffness_N_per_m"])))
-        assert "stiffness over 21 locations: 42" in res.stdout
-    finally:
-        shutil.rmtree(out_dir)
+    res = run(EXAMPLE, "-o", tmp_path / "k.csv")
+    assert res.exit_code == 0, res.output
+    assert_recovered(tmp_path / "k.csv",
+                     dict(zip(truth["location"], truth["true_stiffness_N_per_m"])))
+    assert "stiffness over 21 locations: 42" in res.stdout
+
+
+def test_single_trial_file_and_parquet(unseen, tmp_path):
+    truth, base, trials = unseen
+    out = tmp_path / "k.csv"
+    res = run(base / "folder" / "B4_2.csv", "-o", out)
+    assert res.exit_code == 0, res.output
+    table = pd.read_csv(out)
+    assert list(table["location"]) == ["B4"] and table["n_trials"].tolist() == [1]
+    k_true = next(t.stiffness for t in trials if (t.location, t.trial) == ("B4", 2))
+    assert table["stiffness_N_per_m"][0] == pytest.approx(k_true, rel=0.01)
+    pq = tmp_path / "long.parquet"
+    pd.read_csv(base / "long.csv").to_parquet(pq)
+    res = run(pq, "-o", out)
+    assert res.exit_code == 0, res.output
+    assert_recovered(out, truth)
 
 
 def test_mat_files(tmp_path):
@@ -136,10 +148,12 @@ def test_mat_files(tmp_path):
 def test_mat_without_pymatreader_is_a_clear_error(tmp_path, monkeypatch):
     savemat = pytest.importorskip("scipy.io").savemat
     tr = synth_trial(4000.0, rate=100.0, seed=1)
-    savemat(tmp_path / "A0_1.mat", {"time": tr.time, "displacement": tr.displacement * 1e3,
-                                    "force": tr.force})
+    folder = tmp_path / "mat"
+    folder.mkdir()
+    savemat(folder / "A0_1.mat", {"time": tr.time, "displacement": tr.displacement * 1e3,
+                                  "force": tr.force})
     monkeypatch.setitem(sys.modules, "pymatreader", None)
-    res = run(tmp_path, "-o", tmp_path / ".." / "k_mat.csv")
+    res = run(folder, "-o", tmp_path / "k.csv")
     assert res.exit_code == 1
     assert one_line(res.stderr)
     assert "pymatreader" in res.stderr and "A0_1.mat" in res.stderr

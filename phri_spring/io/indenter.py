@@ -155,7 +155,8 @@ def _numbers(values, file, column: str, where: str = "", line_offset: int = 2,
     else:
         conv = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
         text = s.astype(str).str.strip()
-        missing = s.isna().to_numpy() | text.str.lower().isin(["", "nan", "na", "n/a", "null"]).to_numpy()
+        empty = text.str.lower().isin(["", "nan", "na", "n/a", "null"]).to_numpy()
+        missing = s.isna().to_numpy() | empty
         bad_text = np.isnan(conv) & ~missing
         arr = conv
     if bad_text.any():
