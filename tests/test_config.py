@@ -142,6 +142,15 @@ def test_stiffness_from_fit_stiffness_csv_relative_to_config(tmp_path, monkeypat
     np.testing.assert_allclose(cfg.tissue_stiffness, [values[lab] for lab in LABELS])
 
 
+def test_stiffness_csv_with_integer_values(tmp_path):
+    # a hand-written table: whole numbers are numbers too
+    _fit_csv(tmp_path / "k.csv", {lab: 4000 + i for i, lab in enumerate(LABELS)})
+    d = harmony_dict()
+    d["cuff"]["stiffness"] = "k.csv"
+    cfg = load_config(write(tmp_path / "cfg.yaml", d))
+    np.testing.assert_allclose(cfg.cuff_stiffness, 4000.0 + np.arange(21))
+
+
 def test_stiffness_csv_errors_name_the_file_and_column(tmp_path):
     values = {lab: 4000.0 for lab in LABELS}
     d = harmony_dict()

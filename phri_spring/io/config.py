@@ -281,7 +281,7 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key) -> np.ndarray:
         if col not in df.columns:
             raise DataError(f"missing column {col!r}; expected a CSV written by "
                             "'phri fit-stiffness'", file=csv_path, key=col)
-    values = pd.to_numeric(df["stiffness_N_per_m"], errors="coerce")
+    values = pd.to_numeric(df["stiffness_N_per_m"], errors="coerce").astype(float)
     locs = df["location"].astype(str).str.strip()
     mapping = {}
     for loc, v, raw in zip(locs, values, df["stiffness_N_per_m"]):
