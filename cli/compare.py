@@ -1,0 +1,72 @@
+"""``phri compare``: RMSE of rigid- and compliant-arm predictions against a sensorized cuff."""
+
+from __future__ import annotations
+
+import click
+
+from ._common import info
+
+
+@click.command("compare", context_settings={"help_option_names": ["-h", "--help"]})
+@click.argument("config", metavar="CONFIG")
+@click.argument("manifest", metavar="MANIFEST")
+@click.option("-o", "--output", required=True, metavar="OUTDIR",
+              help="Folder to write (created; must not be or contain an input).")
+@click.option("--arms", default="rigid,compliant", show_default=True, metavar="LIST",
+              help="Arm models to compare, comma-separated: rigid, compliant.")
+@click.option("--tissue-stiffness", metavar="CSV", default=None,
+              help="Tissue stiffness map [N/m, indenter basis] written by 'phri fit-stiffness', "
+                   "replacing the config's tissue.stiffness.")
+@click.option("--no-figures", is_flag=True,
+              help="Write the tables and report.md only (no PNG figures; faster).")
+@click.option("--dpi", type=click.IntRange(min=50, max=600), default=170, show_default=True,
+              help="Resolution of the PNG figures [dots per inch].")
+@click.option("-q", "--quiet", is_flag=True,
+              help="Print nothing on success (the summary is in OUTDIR/summary.csv).")
+def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, quiet):
+    """Compare predicted and measured cuff loads [N] for every trial and condition.
+
+    CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). MANIFEST is
+    an experiment manifest (YAML) listing trial tables:
+
+    \b
+      baseline: no_load        # condition both sides are zeroed on
+      trials:
+        - {file: iact_horizontal_1.csv, experiment: I-Act,
+           direction: horizontal, trial: 1}
+
+    Each trial CSV holds time [s], Fx Fy Fz [load-cell force unit], Mx My Mz
+    [moment unit], one column per element (A0 ... C6) with the measured load
+    [N], and condition (the steady window's label, empty between windows).
+
+    For each trial, condition and arm model, the measured loads and the model's
+    loads at the condition's mean wrench are zeroed on the baseline condition,
+    each on its own side, and RMSE [N] = sqrt(sum_e (F_expt - F_sim)^2 / N)
+    over the N elements (paper Eq. 1). OUTDIR gets rmse.csv, summary.csv (mean
+    and standard error over trials), loads.csv, conditions.csv, rmse_bars.png,
+    heatmaps/*.png, wrench/*.png and report.md; the summary table is printed on
+    stdout.
+
+    \b
+    Example:
+      phri compare configs/harmony_upper_arm.yaml \\
+          examples/experiment/manifest.yaml -o out/compare
+    """
+    from phri_spring.io.atomic import check_output_path
+    from phri_spring.workflows.compare import (compare as run_compare, parse_arms,
+                                               summary_markdown, write_compare)
+
+    arm_list = parse_arms(arms)
+    check_output_path(output, [config, manifest, tissue_stiffness], option="-o/--output",
+                      directory=True)
+    result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness)
+    if not no_figures:
+        n_fig = 1 + sum(len(tc.conditions) for tc in result.trials)   # bars, wrench, heat maps
+        info(f"compare: {len(result.trials)} trials analysed; writing {n_fig} figures ...",
+             quiet)
+    out = write_compare(result, output, figures=not no_figures, dpi=dpi)
+    if not quiet:
+        click.echo(summary_markdown(result))
+    n_heat = sum(1 for f in out.files if f.parent.name == "heatmaps")
+    info(f"wrote {out.outdir} ({len(result.trials)} trials, {len(result.rmse)} RMSE values, "
+         f"{n_heat} heat maps); see {out.outdir / 'report.md'}", quiet)
