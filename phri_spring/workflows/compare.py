@@ -379,8 +379,8 @@ def summary_markdown(result: CompareResult) -> str:
         for arm in arms:
             a = g[g["arm"] == arm]
             if len(a):
-                cells.append(f"{_fmt(float(a['mean_rmse_N'].iloc[0]))} ± "
-                             f"{_fmt(float(a['se_rmse_N'].iloc[0]))}")
+                cells.append(f"{_fmt(float(a['mean_rmse_N'].iloc[0]), 3)} ± "
+                             f"{_fmt(float(a['se_rmse_N'].iloc[0]), 3)}")
                 n = max(n, int(a["n_trials"].iloc[0]))
             else:
                 cells.append("")
@@ -401,7 +401,7 @@ def _rmse_markdown(result: CompareResult) -> str:
             if j == tc.baseline_index:
                 continue
             cells = [s.experiment, s.direction, str(s.trial), c, _fmt(tc.load_n[j], 1)] + \
-                [_fmt(float(tc.rmse[a][j])) for a in arms]
+                [_fmt(float(tc.rmse[a][j]), 3) for a in arms]
             lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
