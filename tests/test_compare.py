@@ -17,7 +17,7 @@ import yaml
 
 from phri_spring.errors import ConfigError, DataError, UsageError
 from phri_spring.io.experiment import load_manifest, read_trial
-from phri_spring.reports.compare_figures import heatmap_figure, rmse_bars_figure
+from phri_spring.reports.compare_figures import heatmap_figure, rmse_bars_figure, wrench_figure
 from phri_spring.synthetic.experiment import make_experiment
 from phri_spring.workflows.compare import compare, parse_arms, summary_markdown, write_compare
 
@@ -382,6 +382,7 @@ def test_rmse_bars_figure_panels():
 
 def test_heatmap_figure_panels_and_shared_symmetric_scale():
     meas = np.linspace(-2.0, 6.0, 21)
+    meas[3] = -0.01
     sim = {"rigid": np.linspace(-1.0, 9.0, 21), "compliant": np.linspace(-3.0, 3.0, 21)}
     fig = heatmap_figure(meas, sim, row_labels=ROWS, n_angles=7, title="E h, trial 1, L1\nFx +1",
                          rmse={"rigid": 2.5, "compliant": 0.75})
@@ -396,10 +397,23 @@ def test_heatmap_figure_panels_and_shared_symmetric_scale():
     assert all(ax.images[0].get_cmap().name == "RdBu_r" for ax in axes[:3])
     texts = [t.get_text() for t in axes[1].texts]
     assert len(texts) == 21 and texts[0] == "-1.0" and texts[-1] == "9.0"
+    assert axes[0].texts[3].get_text() == "0.0"                  # never "-0.0"
     assert [t.get_text() for t in axes[0].get_yticklabels()] == list(ROWS)
     assert [t.get_text() for t in axes[0].get_xticklabels()] == [str(i) for i in range(7)]
     assert axes[0].images[0].get_array().shape == (3, 7)
     assert fig._suptitle.get_text().startswith("E h, trial 1, L1")
+
+
+def test_wrench_figure_panels():
+    t = np.arange(10) * 0.1
+    w = np.outer(np.arange(10), np.ones(6))
+    cond = ["no_load"] * 4 + ["", ""] + ["L1"] * 4
+    fig = wrench_figure(t, w, cond, title="E h, trial 1")
+    ax_f, ax_m = fig.axes
+    assert ax_f.get_ylabel() == "force [N]" and ax_m.get_ylabel() == "moment [N·m]"
+    assert [ln.get_label() for ln in ax_f.lines] == ["Fx", "Fy", "Fz"]
+    assert [ln.get_label() for ln in ax_m.lines] == ["Mx", "My", "Mz"]
+    assert [x.get_text() for x in ax_f.texts] == ["no_load", "L1"]
 
 
 def test_write_compare_writes_every_figure(cfg_path, tmp_path):

@@ -206,6 +206,8 @@ def heatmap_figure(measured, simulated: dict, *, row_labels: Sequence[str], n_an
                     if not np.isfinite(val):
                         continue
                     txt = value_format.format(val)
+                    if txt.startswith("-") and not txt.strip("-0.").strip():
+                        txt = txt[1:]                      # no "-0.0"
                     ax.text(c, r, txt, ha="center", va="center", fontsize=7,
                             color="white" if abs(val) > 0.55 * vmax else "0.1")
         cbar = fig.colorbar(im, ax=list(axes), shrink=0.8, pad=0.02, aspect=15)

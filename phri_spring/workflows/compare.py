@@ -1,4 +1,4 @@
-"""``phri compare`` as library calls: rigid- and compliant-arm predictions against a sensorized cuff.
+"""``phri compare`` as library calls: rigid- vs compliant-arm predictions against a sensorized cuff.
 
 Method (SPEC section 7, paper sections III-C and IV-B):
 
