@@ -253,6 +253,8 @@ class Config:
     strap_axial_position: Optional[float] = None
     max_iterations: int = 100
     raw: dict = field(default_factory=dict, repr=False)
+    #: stiffness CSV files the config reads (inputs: never to be written over)
+    stiffness_files: tuple = ()
 
     @property
     def n_rows(self) -> int:
@@ -441,6 +443,9 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                             key="tissue.stiffness", allow_inf=False, base_dir=base)
     k_c = resolve_stiffness(root.cuff.stiffness, n_rows, n_ang, labels, path=path,
                             key="cuff.stiffness", allow_inf=True, base_dir=base)
+    stiffness_files = tuple(
+        Path(v) if Path(v).is_absolute() else base / v
+        for v in (root.tissue.stiffness, root.cuff.stiffness) if isinstance(v, str))
 
     lc = root.load_cell
     from ..physics.loadcell import convention_sign, rotation_from_euler_xyz
@@ -495,7 +500,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         strap_model=st.model,
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
         strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
-        raw=data,
+        raw=data, stiffness_files=stiffness_files,
     )
 
 

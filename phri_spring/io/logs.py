@@ -63,6 +63,9 @@ def resolve_columns(available, mapping: Optional[dict] = None, *, file=None,
     out = []
     for name in wanted:
         col = mapping.get(name, name)
+        if available.count(col) > 1:
+            raise DataError(f"column {col!r} appears {available.count(col)} times; expected "
+                            "one column of that name", file=file, key=col)
         if col not in available:
             close = difflib.get_close_matches(col, available, n=1, cutoff=0.6)
             hint = f"; did you mean {close[0]!r}?" if close else ""
@@ -121,7 +124,7 @@ def _check_chunk(arr: np.ndarray, start: int, names, path, fmt) -> None:
     if bad.any():
         i, j = np.argwhere(bad)[0]
         val = arr[i, j]
-        what = "an empty cell" if np.isnan(val) else repr(float(val))
+        what = "an empty cell or NaN" if np.isnan(val) else repr(float(val))
         loc = f"line {start + i + 2}" if fmt == "csv" else f"row {start + i + 1}"
         raise DataError(f"expected a finite number on {loc}, got {what}", file=path,
                         key=names[j])
@@ -254,7 +257,7 @@ def count_rows(path) -> Optional[int]:
                 n += buf.count(b"\n")
                 last = buf[-1:]
         return max(0, n - 1 + (last != b"\n"))
-    except (OSError, DataError):
+    except Exception:  # noqa: BLE001 - best effort (progress only); reading reports errors
         return None
 
 

@@ -78,6 +78,8 @@ def parse_baseline(text: Union[str, Baseline, None]) -> Baseline:
                 raise UsageError(f"window:T0:T1 needs finite T0 < T1 [s], got {s!r}",
                                  key="--baseline")
             return Baseline("window", t0, t1)
+    except UsageError:
+        raise
     except ValueError:
         pass
     raise UsageError(f"expected none, zero, first:SECONDS or window:T0:T1, got {s!r}",
@@ -289,7 +291,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     output = Path(output)
     out_fmt = table_format(output, role="output", option="-o/--output")
     cfg = _as_config(config)
-    check_output_path(output, [log, cfg.path], option="-o/--output")
+    check_output_path(output, [log, cfg.path, *cfg.stiffness_files], option="-o/--output")
     base = parse_baseline(baseline)
     colmap = dict(cfg.log_columns)
     colmap.update(columns or {})
