@@ -7,6 +7,14 @@ so that ``phri --help`` stays fast (no numpy, pandas or matplotlib at start-up).
 from __future__ import annotations
 
 import importlib
+import os
+
+# Every matrix product phri-spring makes is 6 wide (or a 6x6 solve) over many samples: BLAS
+# threads only add start-up and contention costs there (measured: slower on 2 cores, much
+# slower on a busy machine). One thread each, unless the user chose otherwise; set before
+# numpy is first imported by a command.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 import click
 

@@ -23,12 +23,15 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.option("--column", "columns", multiple=True, metavar="NAME=LOG_NAME",
               help="Map a spec column (time, Fx, Fy, Fz, Mx, My, Mz) to the log's name, "
                    "e.g. --column 'Fx=Fx (N)'. Repeatable; overrides load_cell.columns.")
-@click.option("--chunk-rows", type=click.IntRange(min=1), default=131072, show_default=True,
+@click.option("--decimals", type=click.IntRange(min=-1, max=17), default=6, show_default=True,
+              help="CSV output: decimals of forces [N] and pressures [kPa] (6 = 1 uN); "
+                   "-1 keeps every digit. Parquet always keeps full precision.")
+@click.option("--chunk-rows", type=click.IntRange(min=1), default=65536, show_default=True,
               help="Samples per chunk (bounds memory on long logs).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress on stderr (default: only when stderr is a terminal).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
-def simulate(config, log, output, arm, baseline, columns, chunk_rows, progress, quiet):
+def simulate(config, log, output, arm, baseline, columns, decimals, chunk_rows, progress, quiet):
     """Predict the normal force [N] on every cuff element for each sample of LOG.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
@@ -54,7 +57,8 @@ def simulate(config, log, output, arm, baseline, columns, chunk_rows, progress, 
     bar = StderrProgress("simulate", progress_enabled(progress))
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
-                                chunk_rows=chunk_rows, progress=bar)
+                                chunk_rows=chunk_rows, decimals=decimals,
+                                progress=bar)
     finally:
         bar.close()
     if summary.not_converged:

@@ -266,7 +266,7 @@ def _window_mean(log, columns, base: Baseline, chunk_rows: int) -> np.ndarray:
 
 def simulate_file(config, log, output, *, arm: str = "compliant",
                   baseline: Union[str, Baseline, None] = "none", columns: Optional[dict] = None,
-                  chunk_rows: int = 131072,
+                  chunk_rows: int = 65536, decimals: Optional[int] = 6,
                   progress: Optional[Callable[[int, Optional[int]], None]] = None
                   ) -> SimulateSummary:
     """Stream a wrench log through the model into a forces file.
@@ -285,6 +285,10 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         Map from spec names to the log's column names; merged over ``load_cell.columns``.
     chunk_rows : int
         Samples per chunk (bounds memory).
+    decimals : int or None
+        CSV output only: decimals kept in forces and pressures (default 6, i.e.
+        1 uN and 1 mPa); None or a negative value keeps every digit. Parquet
+        always stores full double precision.
     progress : callable(done, total), optional
         Called after each chunk; ``total`` may be None.
     """
@@ -310,7 +314,8 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     it_sum = 0
     extra_types = _extra_arrow_types()
     with atomic_file(output) as tmp:
-        with ForcesWriter(tmp, out_fmt, model.labels, extra_types) as writer:
+        with ForcesWriter(tmp, out_fmt, model.labels, extra_types,
+                          decimals=decimals) as writer:
             for ch in iter_wrench_log(log, colmap, chunk_rows=chunk_rows):
                 W = cuff_wrench(cfg, ch.wrench)
                 sol = solve(model, W, max_iterations=cfg.max_iterations)
