@@ -58,7 +58,7 @@ def simulate(config, log, output, arm, baseline, columns, decimals, chunk_rows, 
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
                                 chunk_rows=chunk_rows, decimals=decimals,
-                                progress=bar)
+                                progress=bar if bar.enabled else None)
     finally:
         bar.close()
     if summary.not_converged:

@@ -240,9 +240,18 @@ def _solve_sets(model: SpringModel, keys: np.ndarray, S: np.ndarray, r: np.ndarr
     return _spd_solve_batched(Hf, rhs)
 
 
-def _consistent(S: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """Rows whose active set S agrees with the sign of the compression g (to round-off)."""
-    tol = _SET_RTOL * np.max(np.abs(g), axis=-1, keepdims=True)
+def _consistent(S: np.ndarray, g: np.ndarray, model: SpringModel, u: np.ndarray) -> np.ndarray:
+    """Rows whose active set S agrees with the sign of the compression g, to round-off.
+
+    The tolerance follows the round-off of g_e = delta0_e + b_e . u itself,
+    _SET_RTOL * (max_e |delta0_e| + sum_j max_e |b_ej| |u_j|), so that it also
+    holds when every compression is zero (shear alone carrying the load).
+    """
+    bmax = model._cache.get("__bmax__")
+    if bmax is None:
+        bmax = model._cache["__bmax__"] = (np.max(np.abs(model.b), axis=0),
+                                           float(np.max(np.abs(model.delta0), initial=0.0)))
+    tol = (_SET_RTOL * (np.abs(np.atleast_2d(u)) @ bmax[0] + bmax[1]))[:, None]
     wrong = (S & (g < -tol)) | (~S & (g > tol))
     return ~wrong.any(axis=-1)
 
@@ -285,7 +294,7 @@ def _newton_safeguarded(model: SpringModel, r: np.ndarray, u: np.ndarray, budget
         its += 1
         u_full = u + d
         g_full = d0 + b @ u_full
-        if _consistent(S[None], g_full[None])[0]:
+        if _consistent(S[None], g_full[None], model, u_full)[0]:
             return u_full, its, True
         if not np.any(np.abs(d) > 1e-15 * (np.abs(u) + 1e-12)):
             return u_full, its, True
@@ -328,7 +337,7 @@ def _solve_block(model: SpringModel, r: np.ndarray, S: np.ndarray, max_iteration
         if changed.any():
             # a set that differs only by round-off on an element at the boundary is consistent
             ci = np.flatnonzero(changed)
-            changed[ci[_consistent(St[ci], gt[ci])]] = False
+            changed[ci[_consistent(St[ci], gt[ci], model, ut[ci])]] = False
         idx = np.arange(m) if todo is None else todo
         conv[idx[~changed]] = True
         todo = idx[changed]
@@ -350,7 +359,7 @@ def _solve_block(model: SpringModel, r: np.ndarray, S: np.ndarray, max_iteration
         ok = np.all((g > 0) == S, axis=1)
         bad = np.flatnonzero(conv & ~ok)
         if bad.size:
-            bad = bad[~_consistent(S[bad], g[bad])]
+            bad = bad[~_consistent(S[bad], g[bad], model, u[bad])]
         for i in bad:
             budget = max(0, max_iterations - int(its[i]))
             ui, n_it, ok_i = _newton_safeguarded(model, r[i], u[i], budget)
@@ -384,7 +393,7 @@ def solve_per_sample(model: SpringModel, wrench, *, max_iterations: int = 100) -
             ui = np.linalg.solve(H, r - (kS * d0) @ b)
             n_it += 1
             g = d0 + b @ ui
-            if _consistent(S[None], g[None])[0]:
+            if _consistent(S[None], g[None], model, ui)[0]:
                 ok = True
                 break
             S = g > 0
@@ -522,7 +531,7 @@ class Solver:
             g = b @ u
             g += d0
             S_new = g > 0
-            if np.array_equal(S_new, S) or _consistent(S[None], g[None])[0]:
+            if np.array_equal(S_new, S) or _consistent(S[None], g[None], self.model, u)[0]:
                 self._S, self._Mt, self._c = S, Mt, c
                 self.last_iterations, self.last_converged = it, True
                 return u
