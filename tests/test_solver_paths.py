@@ -110,3 +110,20 @@ def test_simulate_file_streams_like_in_memory(tmp_path):
         np.testing.assert_array_equal(got["time"].to_numpy(), t)
         assert (got["peak_pressure_element"].astype(str) ==
                 mem["peak_pressure_element"].astype(str)).all()
+
+
+@pytest.mark.parametrize("ext", ["csv", "parquet"])
+def test_log_columns_in_any_order_and_integer_types(tmp_path, ext):
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    from phri_spring.io.logs import read_wrench_log
+
+    table = pa.table({"Mz": [6.0, 0.0], "Fx": pa.array([1, 7], pa.int64()), "Fy": [2.0, 0.0],
+                      "Fz": [3.0, 0.0], "Mx": [4.0, 0.0], "My": [5.0, 0.0], "time": [0.5, 0.6]})
+    path = tmp_path / f"log.{ext}"
+    (pacsv.write_csv if ext == "csv" else pq.write_table)(table, str(path))
+    t, w = read_wrench_log(path)
+    np.testing.assert_array_equal(t, [0.5, 0.6])
+    np.testing.assert_array_equal(w, [[1, 2, 3, 4, 5, 6], [7, 0, 0, 0, 0, 0]])

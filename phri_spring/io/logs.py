@@ -196,8 +196,7 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
                     batch = next(it)
                 except StopIteration:
                     break
-                arr = np.column_stack([batch.column(i).to_numpy(zero_copy_only=False)
-                                       for i in range(len(names))]).astype(float, copy=False)
+                arr = _batch_matrix(batch, names)
                 if arr.shape[0] == 0:
                     continue
                 _check_chunk(arr, total + skip, names, path, fmt)
@@ -221,8 +220,7 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
             if not (pa.types.is_floating(typ) or pa.types.is_integer(typ)):
                 raise DataError(f"expected numbers, the column holds {typ}", file=path, key=name)
         for batch in pf.iter_batches(batch_size=int(chunk_rows), columns=names):
-            arr = np.column_stack([batch.column(i).to_numpy(zero_copy_only=False)
-                                   for i in range(len(names))]).astype(float, copy=False)
+            arr = _batch_matrix(batch, names)
             if arr.shape[0] == 0:
                 continue
             _check_chunk(arr, total, names, path, fmt)
@@ -259,6 +257,45 @@ def count_rows(path) -> Optional[int]:
         return max(0, n - 1 + (last != b"\n"))
     except Exception:  # noqa: BLE001 - best effort (progress only); reading reports errors
         return None
+
+
+def _batch_matrix(batch, names) -> np.ndarray:
+    """(rows, len(names)) float64 matrix of the named columns of a batch; nulls become NaN.
+
+    Reads the value buffers directly: ``Array.to_numpy(zero_copy_only=False)``
+    imports pandas on first use (0.2 s of start-up).
+    """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    out = np.empty((batch.num_rows, len(names)))
+    for i, name in enumerate(names):
+        col = batch.column(name)
+        if not pa.types.is_float64(col.type):
+            col = pc.cast(col, pa.float64())
+        if col.null_count:
+            col = pc.fill_null(col, float("nan"))
+        out[:, i] = np.frombuffer(col.buffers()[1], dtype=np.float64, count=len(col),
+                                  offset=col.offset * 8)
+    return out
+
+
+def _arrow_array(values, typ=None):
+    """A pyarrow array from a numpy array without ``pa.array``.
+
+    ``pa.array`` imports pandas on first use (0.2 s of start-up); building the
+    array from its buffers does not, and is zero-copy for numbers.
+    """
+    import pyarrow as pa
+
+    arr = np.asarray(values)
+    if arr.dtype == np.bool_:
+        bits = np.packbits(arr, bitorder="little")
+        return pa.Array.from_buffers(pa.bool_(), len(arr), [None, pa.py_buffer(bits)])
+    if typ is None:
+        typ = pa.from_numpy_dtype(arr.dtype)
+    arr = np.ascontiguousarray(arr, dtype=typ.to_pandas_dtype())
+    return pa.Array.from_buffers(typ, len(arr), [None, pa.py_buffer(arr)])
 
 
 class ForcesWriter:
@@ -333,11 +370,12 @@ class ForcesWriter:
         import pyarrow as pa
 
         rnd = self.decimals if self.fmt == "csv" else None
-        cols = [pa.array(np.asarray(time, dtype=float))]
+        cols = [_arrow_array(np.asarray(time, dtype=float))]
         forces = np.asarray(forces, dtype=float)
         if rnd is not None:
             forces = np.round(forces, rnd)
-        cols += [pa.array(forces[:, j]) for j in range(forces.shape[1])]
+        forces_t = np.ascontiguousarray(forces.T)
+        cols += [_arrow_array(forces_t[j]) for j in range(forces_t.shape[0])]
         for name in self.schema.names[1 + len(self.labels):]:
             typ = self.schema.field(name).type
             val = extras[name]
@@ -346,9 +384,10 @@ class ForcesWriter:
             if pa.types.is_dictionary(typ):
                 idx, names = val
                 cols.append(pa.DictionaryArray.from_arrays(
-                    pa.array(np.asarray(idx, dtype=np.int32)), pa.array(list(names))))
+                    _arrow_array(np.asarray(idx, dtype=np.int32)),
+                    pa.array(list(names), type=pa.string())))
             else:
-                cols.append(pa.array(val, type=typ))
+                cols.append(_arrow_array(val, None if pa.types.is_boolean(typ) else typ))
         return pa.Table.from_arrays(cols, schema=self.schema)
 
     def _write_now(self, time, forces, extras):
