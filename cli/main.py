@@ -16,6 +16,31 @@ import os
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+
+def _keep_freed_memory() -> None:
+    """Let glibc reuse freed memory instead of returning it to the system.
+
+    Each chunk of a long log allocates arrays of the same sizes; by default
+    glibc maps large ones fresh and unmaps them when freed, and every page is
+    then faulted in again (measured: a third of the run time of `phri
+    simulate` on a one-hour log went to page faults). Keeping up to 32 MB
+    blocks on the heap and not trimming it makes the next chunk reuse them.
+    Memory use does not grow: freed blocks are reused, not leaked.
+    """
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL("libc.so.6")
+        m_trim_threshold, m_mmap_threshold = -1, -3
+        libc.mallopt(m_mmap_threshold, 32 << 20)
+        libc.mallopt(m_trim_threshold, 1 << 30)
+    except (OSError, AttributeError):  # not glibc: nothing to tune
+        pass
+
 import click
 
 from ._common import PhriGroup
@@ -75,6 +100,7 @@ def phri():
 
 
 def main(argv=None):
+    _keep_freed_memory()
     phri.main(args=argv, prog_name="phri")
 
 

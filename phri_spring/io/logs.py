@@ -183,10 +183,12 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
             raise DataError("the file is empty; expected a header line with time, Fx, Fy, Fz, "
                             "Mx, My, Mz", file=path)
         names = resolve_columns(header, columns, file=path, wanted=wanted)
-        block = max(1 << 16, int(chunk_rows) * 16 * len(header))
+        # blocks of about chunk_rows rows at ~8 bytes a cell, at most 2 MB: larger blocks
+        # cost more in page faults than they save (measured)
+        block = int(min(max(1 << 16, int(chunk_rows) * 8 * len(header)), 1 << 21))
         try:
             reader = pacsv.open_csv(
-                path, read_options=pacsv.ReadOptions(block_size=min(block, 1 << 30),
+                path, read_options=pacsv.ReadOptions(block_size=block, use_threads=False,
                                                      skip_rows=skip),
                 convert_options=pacsv.ConvertOptions(
                     include_columns=names, column_types={c: pa.float64() for c in names}))
@@ -266,15 +268,14 @@ def _batch_matrix(batch, names) -> np.ndarray:
     imports pandas on first use (0.2 s of start-up).
     """
     import pyarrow as pa
-    import pyarrow.compute as pc
 
     out = np.empty((batch.num_rows, len(names)))
     for i, name in enumerate(names):
         col = batch.column(name)
-        if not pa.types.is_float64(col.type):
-            col = pc.cast(col, pa.float64())
-        if col.null_count:
-            col = pc.fill_null(col, float("nan"))
+        if not pa.types.is_float64(col.type) or col.null_count:
+            import pyarrow.compute as pc  # only when needed: 30 ms to import
+
+            col = pc.fill_null(pc.cast(col, pa.float64()), float("nan"))
         out[:, i] = np.frombuffer(col.buffers()[1], dtype=np.float64, count=len(col),
                                   offset=col.offset * 8)
     return out
@@ -296,6 +297,17 @@ def _arrow_array(values, typ=None):
         typ = pa.from_numpy_dtype(arr.dtype)
     arr = np.ascontiguousarray(arr, dtype=typ.to_pandas_dtype())
     return pa.Array.from_buffers(typ, len(arr), [None, pa.py_buffer(arr)])
+
+
+def _arrow_strings(names):
+    """A pyarrow string array from Python strings, from its buffers (see _arrow_array)."""
+    import pyarrow as pa
+
+    data = [str(n).encode("utf-8") for n in names]
+    offsets = np.zeros(len(data) + 1, dtype=np.int32)
+    offsets[1:] = np.cumsum([len(d) for d in data])
+    return pa.Array.from_buffers(pa.string(), len(data),
+                                 [None, pa.py_buffer(offsets), pa.py_buffer(b"".join(data))])
 
 
 class ForcesWriter:
@@ -384,8 +396,7 @@ class ForcesWriter:
             if pa.types.is_dictionary(typ):
                 idx, names = val
                 cols.append(pa.DictionaryArray.from_arrays(
-                    _arrow_array(np.asarray(idx, dtype=np.int32)),
-                    pa.array(list(names), type=pa.string())))
+                    _arrow_array(np.asarray(idx, dtype=np.int32)), _arrow_strings(names)))
             else:
                 cols.append(_arrow_array(val, None if pa.types.is_boolean(typ) else typ))
         return pa.Table.from_arrays(cols, schema=self.schema)
