@@ -316,7 +316,9 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     with atomic_file(output) as tmp:
         with ForcesWriter(tmp, out_fmt, model.labels, extra_types,
                           decimals=decimals) as writer:
-            for ch in iter_wrench_log(log, colmap, chunk_rows=chunk_rows):
+            # fine meshes: fewer rows per chunk, so a chunk's arrays stay about 32 MB
+            rows = max(1024, min(int(chunk_rows), (1 << 22) // model.n))
+            for ch in iter_wrench_log(log, colmap, chunk_rows=rows):
                 W = cuff_wrench(cfg, ch.wrench)
                 sol = solve(model, W, max_iterations=cfg.max_iterations)
                 extras, idx = per_sample_extras(model, sol.forces, sol.contact, sol.iterations,
