@@ -76,9 +76,23 @@ def loadcell_to_cuff(wrench_lc, rotation=None, position=(0.0, 0.0, 0.0), sign: f
     w = np.asarray(wrench_lc, dtype=float)
     R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
     p = np.asarray(position, dtype=float)
-    F = (w[..., :3] * force_scale) @ R.T
-    M = (w[..., 3:] * moment_scale) @ R.T + np.cross(p, F)
-    return sign * np.concatenate([F, M], axis=-1)
+    out = np.empty(np.broadcast_shapes(w.shape, (6,)))
+    F, M = out[..., :3], out[..., 3:]
+    identity = np.array_equal(R, np.eye(3))
+    np.multiply(w[..., :3], sign * force_scale, out=F)
+    np.multiply(w[..., 3:], sign * moment_scale, out=M)
+    if not identity:
+        F[...] = F @ R.T
+        M[...] = M @ R.T
+    # M += p x F, written out (np.cross is slow on long arrays)
+    px, py, pz = p
+    if py or pz:
+        M[..., 0] += py * F[..., 2] - pz * F[..., 1]
+    if px or pz:
+        M[..., 1] += pz * F[..., 0] - px * F[..., 2]
+    if px or py:
+        M[..., 2] += px * F[..., 1] - py * F[..., 0]
+    return out
 
 
 def cuff_to_loadcell(wrench_cuff, rotation=None, position=(0.0, 0.0, 0.0), sign: float = 1.0,
