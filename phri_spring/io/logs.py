@@ -221,7 +221,8 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
             typ = pf.schema_arrow.field(name).type
             if not (pa.types.is_floating(typ) or pa.types.is_integer(typ)):
                 raise DataError(f"expected numbers, the column holds {typ}", file=path, key=name)
-        for batch in pf.iter_batches(batch_size=int(chunk_rows), columns=names):
+        for batch in pf.iter_batches(batch_size=int(chunk_rows), columns=names,
+                                     use_threads=False):
             arr = _batch_matrix(batch, names)
             if arr.shape[0] == 0:
                 continue
