@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import DataError, UsageError
 from .config import LOG_COLUMNS
 
-__all__ = ["table_format", "resolve_columns", "iter_wrench_log", "read_wrench_log",
+__all__ = ["prefetch", "table_format", "resolve_columns", "iter_wrench_log", "read_wrench_log",
            "count_rows", "ForcesWriter", "WrenchChunk", "parse_column_map"]
 
 _FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet"}
@@ -231,6 +231,47 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
             total += arr.shape[0]
     if total == 0:
         raise DataError("no data rows; expected at least one sample", file=path)
+
+
+def prefetch(iterable, depth: int = 2):
+    """Iterate on a background thread, ``depth`` items ahead (reading overlaps computing).
+
+    Exceptions raised by the iterable are re-raised in the caller, in order.
+    """
+    import queue
+    import threading
+
+    q: "queue.Queue" = queue.Queue(maxsize=depth)
+    done = object()
+    stop = threading.Event()
+
+    def run():
+        try:
+            for item in iterable:
+                while not stop.is_set():
+                    try:
+                        q.put((item, None), timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            q.put((done, None))
+        except BaseException as exc:  # noqa: BLE001 - handed to the caller
+            q.put((done, exc))
+
+    th = threading.Thread(target=run, name="phri-reader", daemon=True)
+    th.start()
+    try:
+        while True:
+            item, exc = q.get()
+            if item is done:
+                if exc is not None:
+                    raise exc
+                return
+            yield item
+    finally:
+        stop.set()
 
 
 def read_wrench_log(path, columns: Optional[dict] = None):
