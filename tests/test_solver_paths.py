@@ -127,3 +127,45 @@ def test_log_columns_in_any_order_and_integer_types(tmp_path, ext):
     t, w = read_wrench_log(path)
     np.testing.assert_array_equal(t, [0.5, 0.6])
     np.testing.assert_array_equal(w, [[1, 2, 3, 4, 5, 6], [7, 0, 0, 0, 0, 0]])
+
+
+def test_prefetch_keeps_order_and_reraises():
+    from phri_spring.io.logs import prefetch
+
+    assert list(prefetch(iter(range(50)), depth=2)) == list(range(50))
+
+    def failing():
+        yield 1
+        yield 2
+        raise ValueError("bad chunk 3")
+
+    got = []
+    with pytest.raises(ValueError, match="bad chunk 3"):
+        for x in prefetch(failing()):
+            got.append(x)
+    assert got == [1, 2]
+    # leaving early stops the reader thread (no hang, no error)
+    for x in prefetch(iter(range(10_000)), depth=1):
+        if x == 3:
+            break
+
+
+def test_cuff_stiffness_csv_may_hold_inf_tissue_may_not(tmp_path):
+    import yaml
+
+    from phri_spring.errors import DataError
+    from phri_spring.io.config import load_config
+
+    base = yaml.safe_load(open("configs/harmony_upper_arm.yaml"))
+    labels = [f"{r}{j}" for r in "ABC" for j in range(7)]
+    csv = tmp_path / "k.csv"
+    csv.write_text("location,stiffness_N_per_m\n" +
+                   "".join(f"{lab},{'inf' if lab == 'B5' else 2e5}\n" for lab in labels))
+    base["cuff"]["stiffness"] = "k.csv"
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(base))
+    cfg = load_config(tmp_path / "c.yaml")
+    assert np.isinf(cfg.cuff_stiffness[labels.index("B5")])
+    base["tissue"]["stiffness"] = "k.csv"
+    (tmp_path / "t.yaml").write_text(yaml.safe_dump(base))
+    with pytest.raises(DataError, match="finite"):
+        load_config(tmp_path / "t.yaml")

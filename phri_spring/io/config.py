@@ -269,7 +269,7 @@ def _label_list(row_labels, count) -> tuple:
     return tuple(f"{r}{j}" for r in row_labels for j in range(count))
 
 
-def _read_stiffness_csv(csv_path: Path, labels, path, key) -> np.ndarray:
+def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = False) -> np.ndarray:
     import pandas as pd
 
     if not csv_path.is_file():
@@ -289,8 +289,10 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key) -> np.ndarray:
     for loc, v, raw in zip(locs, values, df["stiffness_N_per_m"]):
         if loc in mapping:
             raise DataError(f"location {loc!r} appears twice", file=csv_path, key="location")
-        if not (isinstance(v, float) and math.isfinite(v) and v > 0):
-            raise DataError(f"location {loc}: expected a positive finite stiffness, got {raw!r}",
+        if not (isinstance(v, float) and v > 0 and (math.isfinite(v) or allow_inf)):
+            what = "a positive stiffness (inf allowed)" if allow_inf else \
+                "a positive finite stiffness"
+            raise DataError(f"location {loc}: expected {what}, got {raw!r}",
                             file=csv_path, key="stiffness_N_per_m")
         mapping[loc] = float(v)
     missing = [lab for lab in labels if lab not in mapping]
@@ -345,7 +347,7 @@ def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, k
     if isinstance(value, str):
         base = base_dir if base_dir is not None else Path(".")
         csv_path = Path(value) if Path(value).is_absolute() else base / value
-        return check(_read_stiffness_csv(csv_path, labels, path, key))
+        return check(_read_stiffness_csv(csv_path, labels, path, key, allow_inf))
     if isinstance(value, dict):
         if set(value) in ({"per_row"}, {"per_angle"}):
             (form, seq), = value.items()
