@@ -169,3 +169,17 @@ def test_cuff_stiffness_csv_may_hold_inf_tissue_may_not(tmp_path):
     (tmp_path / "t.yaml").write_text(yaml.safe_dump(base))
     with pytest.raises(DataError, match="finite"):
         load_config(tmp_path / "t.yaml")
+
+
+def test_out_buffer_reused_gives_the_same_forces():
+    model = _model(6, 24, seed=6)
+    _, W = smooth_random_log(2000, seed=13)
+    ref = sv.solve(model, W)
+    buf = np.full((len(W), model.n), 123.0)
+    for _ in range(2):  # reuse: stale values must not leak into the result
+        res = sv.solve(model, W, out=buf)
+        assert res.forces is buf
+        np.testing.assert_allclose(buf, ref.forces, rtol=0, atol=1e-12)
+        np.testing.assert_array_equal(res.contact, ref.forces > 0)
+    with pytest.raises(ValueError, match="out"):
+        sv.solve(model, W, out=np.empty((len(W), model.n + 1)))

@@ -23,8 +23,6 @@ not converge within ``max_iterations`` are flagged and their forces are NaN.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from .model import SpringModel
@@ -43,7 +41,6 @@ _WARM_STRIDE = 16
 _CACHE_MAX = 1 << 14
 
 
-@dataclass
 class Solution:
     """Result of :func:`solve` for m samples and n elements.
 
@@ -54,17 +51,31 @@ class Solution:
     forces : ndarray, shape (m, n)
         Normal force on the arm f_e [N] (NaN where not converged).
     contact : ndarray of bool, shape (m, n)
-        Element in contact (compression > 0).
+        Element in contact (compression > 0, i.e. f_e > 0); computed on first
+        access (False where not converged).
     iterations : ndarray of int, shape (m,)
         Linear solves the sample needed.
     converged : ndarray of bool, shape (m,)
     """
 
-    u: np.ndarray
-    forces: np.ndarray
-    contact: np.ndarray
-    iterations: np.ndarray
-    converged: np.ndarray
+    __slots__ = ("u", "forces", "iterations", "converged", "_contact")
+
+    def __init__(self, u, forces, iterations, converged, contact=None):
+        self.u = u
+        self.forces = forces
+        self.iterations = iterations
+        self.converged = converged
+        self._contact = contact
+
+    @property
+    def contact(self) -> np.ndarray:
+        if self._contact is None:
+            self._contact = self.forces > 0
+        return self._contact
+
+    def __repr__(self):
+        return (f"Solution(samples={np.shape(self.forces)[0] if np.ndim(self.forces) > 1 else 1}, "
+                f"converged={bool(np.all(self.converged))})")
 
 
 def compression(model: SpringModel, u) -> np.ndarray:
@@ -309,7 +320,7 @@ def _newton_safeguarded(model: SpringModel, r: np.ndarray, u: np.ndarray, budget
 
 # --------------------------------------------------------------------------- batch solver
 def _solve_block(model: SpringModel, r: np.ndarray, S: np.ndarray, max_iterations: int,
-                 keys: np.ndarray | None = None):
+                 keys: np.ndarray | None = None, g_out: np.ndarray | None = None):
     """Solve a block of samples from initial active sets S; returns (u, g, keys, its, conv).
 
     g is the compression of every element at the solution, keys the packed contact sets.
@@ -324,7 +335,11 @@ def _solve_block(model: SpringModel, r: np.ndarray, S: np.ndarray, max_iteration
     for _ in range(min(PLAIN_ITERATIONS, max_iterations)):
         if todo is None:
             ut = _solve_sets(model, keys, S, r)
-            gt = _compression(model, ut)
+            if g_out is None:
+                gt = _compression(model, ut)
+            else:  # straight into the caller's array: no extra pass, no fresh pages
+                gt = np.matmul(ut, _bT(model), out=g_out)
+                gt += model.delta0
             u, g = ut, gt
             its += 1
             St, kt = S, keys
@@ -407,10 +422,10 @@ def solve_per_sample(model: SpringModel, wrench, *, max_iterations: int = 100) -
     g = d0 + u @ b.T
     forces = k * np.maximum(g, 0.0)
     forces[~conv] = np.nan
-    return Solution(u=u, forces=forces, contact=g > 0, iterations=its, converged=conv)
+    return Solution(u=u, forces=forces, iterations=its, converged=conv)
 
 
-def _solve_warm(model: SpringModel, r: np.ndarray, carry, max_iterations: int):
+def _solve_warm(model: SpringModel, r: np.ndarray, carry, max_iterations: int, g_out=None):
     """Neighbour warm start, applied recursively (multilevel).
 
     Every _WARM_STRIDE-th sample (and the last) is solved first, itself warm-started
@@ -439,12 +454,12 @@ def _solve_warm(model: SpringModel, r: np.ndarray, carry, max_iterations: int):
             S0[rows] = _compression(model, u_pred) > 0
     else:
         S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
-    u, g, _, its, conv = _solve_block(model, r, S0, max_iterations)
+    u, g, _, its, conv = _solve_block(model, r, S0, max_iterations, g_out=g_out)
     return u, g, its, conv
 
 
 def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: bool = True,
-          initial_active=None) -> Solution:
+          initial_active=None, out: np.ndarray | None = None) -> Solution:
     """Solve the equilibrium for every sample of a wrench log.
 
     Parameters
@@ -460,6 +475,10 @@ def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: 
         first on a strided subset of the log) instead of full contact.
     initial_active : array_like of bool, shape (n,) or (m, n), optional
         Initial contact set(s); overrides ``warm_start``.
+    out : ndarray, shape (m, n), optional
+        Array (float64, C-contiguous) to write the forces into. Reusing one
+        array across the chunks of a long stream avoids faulting in fresh
+        memory for every chunk, which dominates on fine meshes.
 
     Returns
     -------
@@ -480,8 +499,13 @@ def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: 
     r = W + model.W_pre
 
     u = np.empty((m, 6))
-    forces = np.empty((m, n))
-    contact = np.empty((m, n), dtype=bool)
+    if out is None:
+        forces = np.empty((m, n))
+    else:
+        forces = out
+        if not (isinstance(out, np.ndarray) and out.shape == (m, n) and out.dtype == np.float64
+                and out.flags.c_contiguous):
+            raise ValueError(f"out: expected a C-contiguous float64 array of shape ({m}, {n})")
     its = np.empty(m, dtype=np.int64)
     conv = np.empty(m, dtype=bool)
     block = max(256, _BLOCK_ENTRIES // max(n, 1))
@@ -490,27 +514,25 @@ def solve(model: SpringModel, wrench, *, max_iterations: int = 100, warm_start: 
         e = min(m, s + block)
         rb = r[s:e]
         mb = e - s
+        gb = forces[s:e]  # compressions are computed in place, then turned into forces
         if initial_active is not None:
             S0 = np.broadcast_to(np.asarray(initial_active, dtype=bool), (m, n))[s:e]
-            ub, gb, _, itb, cb = _solve_block(model, rb, S0, max_iterations)
+            ub, gb, _, itb, cb = _solve_block(model, rb, S0, max_iterations, g_out=gb)
         elif warm_start:
-            ub, gb, itb, cb = _solve_warm(model, rb, carry, max_iterations)
+            ub, gb, itb, cb = _solve_warm(model, rb, carry, max_iterations, g_out=gb)
         else:
             S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
-            ub, gb, _, itb, cb = _solve_block(model, rb, S0, max_iterations)
+            ub, gb, _, itb, cb = _solve_block(model, rb, S0, max_iterations, g_out=gb)
         u[s:e], its[s:e], conv[s:e] = ub, itb, cb
-        contact[s:e] = gb > 0
+        carry = gb[-1] > 0
         np.maximum(gb, 0.0, out=gb)
-        np.multiply(gb, model.k, out=forces[s:e])
-        carry = contact[e - 1]
+        gb *= model.k
 
     if not conv.all():
         forces[~conv] = np.nan
-    sol = Solution(u=u, forces=forces, contact=contact, iterations=its, converged=conv)
     if single:
-        sol = Solution(u=u[0], forces=forces[0], contact=sol.contact[0], iterations=its[0],
-                       converged=conv[0])
-    return sol
+        return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0])
+    return Solution(u=u, forces=forces, iterations=its, converged=conv)
 
 
 class Solver:
