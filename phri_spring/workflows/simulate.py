@@ -123,18 +123,19 @@ def per_sample_extras(model: SpringModel, absolute_forces, contact, iterations, 
     if inv_area_kpa is None:
         inv_area_kpa = model._cache["__inv_area_kpa__"] = 1.0 / (1000.0 * model.areas)
     pressure = absolute_forces * inv_area_kpa                                  # kPa
-    if np.isnan(pressure).any():
+    converged = np.asarray(converged, dtype=bool)
+    if not converged.all():  # NaN rows: keep argmax away from them
         pressure = np.where(np.isnan(pressure), -np.inf, pressure)
     idx = np.argmax(pressure, axis=1)
     peak = pressure[np.arange(len(idx)), idx]
-    peak[~np.asarray(converged, dtype=bool)] = np.nan
+    peak[~converged] = np.nan
     return {
         "contacts_in_touch": np.count_nonzero(contact, axis=1).astype(np.int64),
         "peak_pressure_kPa": peak,
         "peak_pressure_element": (idx, tuple(model.labels)),
         "peak_pressure_to_pain_threshold": peak / model.pain_threshold_kpa,
         "solver_iterations": np.asarray(iterations, dtype=np.int64),
-        "converged": np.asarray(converged, dtype=bool),
+        "converged": converged,
     }, idx
 
 
