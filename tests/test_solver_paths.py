@@ -183,3 +183,21 @@ def test_out_buffer_reused_gives_the_same_forces():
         np.testing.assert_array_equal(res.contact, ref.forces > 0)
     with pytest.raises(ValueError, match="out"):
         sv.solve(model, W, out=np.empty((len(W), model.n + 1)))
+
+
+def test_extras_with_an_unconverged_sample():
+    from phri_spring.workflows.simulate import per_sample_extras
+
+    model = _model(3, 7, seed=1)
+    W = np.array([[0, 0, 30.0, 0, 0, 0], [0, 20.0, 0, 0, 0, 0]])
+    sol = sv.solve(model, W)
+    forces = sol.forces.copy()
+    forces[1] = np.nan
+    conv = np.array([True, False])
+    extras, idx = per_sample_extras(model, forces, forces > 0, sol.iterations, conv)
+    p0 = forces[0] / model.areas / 1000.0
+    assert idx[0] == np.argmax(p0)
+    np.testing.assert_allclose(extras["peak_pressure_kPa"][0], p0.max())
+    assert np.isnan(extras["peak_pressure_kPa"][1])
+    assert extras["contacts_in_touch"][1] == 0
+    assert list(extras["converged"]) == [True, False]
