@@ -389,7 +389,15 @@ class ForcesWriter:
         if self.fmt == "csv":
             import pyarrow.csv as pacsv
 
-            opts = pacsv.WriteOptions(batch_size=16384)
+            # no quotes when no name or label needs them (a plain header people can read)
+            plain = all(re.fullmatch(r"[\w.+-]+", str(x)) for x in
+                        list(self.schema.names) + list(self.labels))
+            try:
+                style = "none" if plain else "needed"
+                opts = pacsv.WriteOptions(batch_size=16384, quoting_style=style,
+                                          quoting_header=style)
+            except TypeError:  # pragma: no cover - pyarrow without quoting_style
+                opts = pacsv.WriteOptions(batch_size=16384)
             self._writer = pacsv.CSVWriter(str(self.path), self.schema, write_options=opts)
         else:
             import pyarrow.parquet as pq

@@ -1,0 +1,40 @@
+"""The real console entry point (`phri_cli.main:main`), run as a process.
+
+It leaves through os._exit after flushing, so its exit codes and output are
+checked here end to end (CliRunner tests call the click group instead).
+"""
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIG = ROOT / "configs" / "harmony_upper_arm.yaml"
+LOG = ROOT / "examples" / "wrench_log.csv"
+
+
+def run(*args):
+    return subprocess.run([sys.executable, "-m", "phri_cli.main", *map(str, args)],
+                          capture_output=True, text=True, cwd=ROOT, timeout=120)
+
+
+def test_success_writes_output_and_summary(tmp_path):
+    out = tmp_path / "f.csv"
+    res = run("simulate", CONFIG, LOG, "-o", out)
+    assert res.returncode == 0, res.stderr
+    assert out.stat().st_size > 0
+    assert "wrote" in res.stderr and "peak pressure" in res.stderr
+    lines = out.read_text().splitlines()
+    assert len(lines) == 4601 and lines[0].startswith("time,A0,")
+
+
+def test_exit_codes_and_one_line_errors(tmp_path):
+    res = run("simulate", CONFIG, tmp_path / "missing.csv", "-o", tmp_path / "f.csv")
+    assert res.returncode == 1
+    assert res.stderr.strip().count("\n") == 0 and "missing.csv" in res.stderr
+    res = run("simulate", CONFIG, LOG, "-o", tmp_path / "f.csv", "--baseline", "window:5:1")
+    assert res.returncode == 2
+    assert res.stderr.strip().count("\n") == 0 and "--baseline" in res.stderr
+    assert not (tmp_path / "f.csv").exists()
+    res = run("--help")
+    assert res.returncode == 0 and "simulate" in res.stdout
