@@ -431,6 +431,8 @@ class ForcesWriter:
     def _table(self, time, forces, extras):
         import pyarrow as pa
 
+        if callable(extras):  # computed here, on the writer thread
+            extras = extras()
         rnd = self.decimals if self.fmt == "csv" else None
         cols = [_arrow_array(np.asarray(time, dtype=float))]
         forces = np.asarray(forces, dtype=float)
@@ -457,7 +459,8 @@ class ForcesWriter:
     def write(self, time, forces, extras: dict) -> None:
         """Queue (or write) one chunk: time (k,), forces (k, n) [N], extras by column name.
 
-        A dictionary-typed extra column takes ``(indices, names)``.
+        ``extras`` may be a callable returning that mapping: it is then called on
+        the writer thread. A dictionary-typed extra column takes ``(indices, names)``.
         """
         if self._error is not None:
             raise self._error

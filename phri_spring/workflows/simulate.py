@@ -308,9 +308,6 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     total = count_rows(log) if progress is not None else None
 
     n_samples = n_bad = 0
-    peak = -math.inf
-    peak_el = ""
-    pain = -math.inf
     it_max = 0
     it_sum = 0
     extra_types = _extra_arrow_types()
@@ -324,28 +321,37 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
                 # reading Parquet ahead on a thread overlaps the solver (measured: a few %
                 # faster); CSV parsing ahead competes with the CSV writer (11 % slower)
                 chunks = prefetch(chunks)
+            peak_state = {"peak": -math.inf, "element": "", "pain": -math.inf}
+
+            def extras_of(sol):
+                # runs on the writer thread, so it overlaps the solving of the next chunk
+                def compute():
+                    extras, idx = per_sample_extras(model, sol.forces, sol.contact,
+                                                    sol.iterations, sol.converged)
+                    pp = extras["peak_pressure_kPa"]
+                    if np.isfinite(pp).any():
+                        j = int(np.nanargmax(pp))
+                        if pp[j] > peak_state["peak"]:
+                            peak_state.update(peak=float(pp[j]), element=model.labels[int(idx[j])],
+                                              pain=float(extras["peak_pressure_to_pain_threshold"][j]))
+                    return extras
+                return compute
+
             for ch in chunks:
                 W = cuff_wrench(cfg, ch.wrench)
                 sol = solve(model, W, max_iterations=cfg.max_iterations)
-                extras, idx = per_sample_extras(model, sol.forces, sol.contact, sol.iterations,
-                                                sol.converged)
                 forces = sol.forces if f_base is None else sol.forces - f_base
-                writer.write(ch.time, forces, extras)
+                writer.write(ch.time, forces, extras_of(sol))
                 n_samples += len(ch.time)
                 n_bad += int((~sol.converged).sum())
-                pp = extras["peak_pressure_kPa"]
-                if np.isfinite(pp).any():
-                    j = int(np.nanargmax(pp))
-                    if pp[j] > peak:
-                        peak, peak_el = float(pp[j]), model.labels[int(idx[j])]
-                        pain = float(extras["peak_pressure_to_pain_threshold"][j])
                 it_max = max(it_max, int(sol.iterations.max()))
                 it_sum += int(sol.iterations.sum())
                 if progress is not None:
                     progress(n_samples, total)
     return SimulateSummary(output=output, samples=n_samples, not_converged=n_bad,
-                           max_peak_pressure_kpa=peak, max_peak_element=peak_el,
-                           max_pain_ratio=pain, max_iterations_used=it_max,
+                           max_peak_pressure_kpa=peak_state["peak"],
+                           max_peak_element=peak_state["element"],
+                           max_pain_ratio=peak_state["pain"], max_iterations_used=it_max,
                            mean_iterations=it_sum / max(n_samples, 1), baseline_forces=f_base,
                            labels=tuple(model.labels))
 
