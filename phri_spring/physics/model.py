@@ -73,10 +73,6 @@ class SpringModel:
     def law(self) -> LinearContact:
         return LinearContact(self.k)
 
-    def rhs_offset(self, active: np.ndarray) -> np.ndarray:
-        """sum over inactive elements of f0_e b_e, shape (..., 6) (hoop), zeros otherwise."""
-        return (~np.asarray(active, dtype=bool) * self.f0) @ self.b
-
 
 def tissue_element_stiffness(values, areas, basis: str = "indenter",
                              indenter_diameter: float = 0.009) -> np.ndarray:

@@ -8,7 +8,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Optional, Union
 
@@ -101,6 +101,7 @@ class SimulationResult:
     peak_pressure_kpa: np.ndarray    # (m,) [kPa] from absolute forces
     peak_element: np.ndarray         # (m,) element index of the peak
     pain_ratio: np.ndarray           # (m,) peak pressure / pain threshold [-]
+    extras: dict = field(default_factory=dict, repr=False)  # per_sample_extras' columns
 
     def to_frame(self):
         """A pandas DataFrame with the columns of the forces file."""
@@ -108,8 +109,11 @@ class SimulationResult:
 
         data = {"time": self.time}
         data.update({lab: self.forces[:, j] for j, lab in enumerate(self.labels)})
-        extras = _extras_from(self)
-        data.update(extras)
+        for name, values in self.extras.items():
+            if name == "peak_pressure_element":  # (indices, labels), dictionary-encoded
+                idx, names = values
+                values = np.asarray(names, dtype=object)[idx]
+            data[name] = values
         return pd.DataFrame(data)
 
 
@@ -137,17 +141,6 @@ def per_sample_extras(model: SpringModel, absolute_forces, contact, iterations, 
         "solver_iterations": np.asarray(iterations, dtype=np.int64),
         "converged": converged,
     }, idx
-
-
-def _extras_from(res: SimulationResult) -> dict:
-    return {
-        "contacts_in_touch": res.contact.sum(axis=1).astype(np.int64),
-        "peak_pressure_kPa": res.peak_pressure_kpa,
-        "peak_pressure_element": np.asarray(res.labels, dtype=object)[res.peak_element],
-        "peak_pressure_to_pain_threshold": res.pain_ratio,
-        "solver_iterations": res.iterations,
-        "converged": res.converged,
-    }
 
 
 def _window_mask(time: np.ndarray, baseline: Baseline, t_first: float) -> np.ndarray:
@@ -224,7 +217,7 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                             contact=sol.contact, iterations=sol.iterations,
                             converged=sol.converged, peak_pressure_kpa=extras["peak_pressure_kPa"],
                             peak_element=idx,
-                            pain_ratio=extras["peak_pressure_to_pain_threshold"])
+                            pain_ratio=extras["peak_pressure_to_pain_threshold"], extras=extras)
 
 
 @dataclass
