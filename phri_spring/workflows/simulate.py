@@ -314,37 +314,41 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
                 # reading Parquet ahead on a thread overlaps the solver (measured: a few %
                 # faster); CSV parsing ahead competes with the CSV writer (11 % slower)
                 chunks = prefetch(chunks)
-            peak_state = {"peak": -math.inf, "element": "", "pain": -math.inf}
+            peaks = {}  # chunk number -> (peak [kPa], element, pain ratio)
 
-            def extras_of(sol):
-                # runs on the writer thread, so it overlaps the solving of the next chunk
+            def extras_of(number, sol):
+                # runs on a writer thread, overlapping the solving of the next chunks;
+                # chunks may finish out of order, so each keeps its own peak
                 def compute():
                     extras, idx = per_sample_extras(model, sol.forces, sol.contact,
                                                     sol.iterations, sol.converged)
                     pp = extras["peak_pressure_kPa"]
                     if np.isfinite(pp).any():
                         j = int(np.nanargmax(pp))
-                        if pp[j] > peak_state["peak"]:
-                            peak_state.update(peak=float(pp[j]), element=model.labels[int(idx[j])],
-                                              pain=float(extras["peak_pressure_to_pain_threshold"][j]))
+                        peaks[number] = (float(pp[j]), model.labels[int(idx[j])],
+                                         float(extras["peak_pressure_to_pain_threshold"][j]))
                     return extras
                 return compute
 
-            for ch in chunks:
+            for number, ch in enumerate(chunks):
                 W = cuff_wrench(cfg, ch.wrench)
                 sol = solve(model, W, max_iterations=cfg.max_iterations)
                 forces = sol.forces if f_base is None else sol.forces - f_base
-                writer.write(ch.time, forces, extras_of(sol))
+                writer.write(ch.time, forces, extras_of(number, sol))
                 n_samples += len(ch.time)
                 n_bad += int((~sol.converged).sum())
                 it_max = max(it_max, int(sol.iterations.max()))
                 it_sum += int(sol.iterations.sum())
                 if progress is not None:
                     progress(n_samples, total)
+    # the first chunk holding the largest peak (as a sequential pass would find it)
+    best = (-math.inf, "", -math.inf)
+    for number in sorted(peaks):
+        if peaks[number][0] > best[0]:
+            best = peaks[number]
     return SimulateSummary(output=output, samples=n_samples, not_converged=n_bad,
-                           max_peak_pressure_kpa=peak_state["peak"],
-                           max_peak_element=peak_state["element"],
-                           max_pain_ratio=peak_state["pain"], max_iterations_used=it_max,
+                           max_peak_pressure_kpa=best[0], max_peak_element=best[1],
+                           max_pain_ratio=best[2], max_iterations_used=it_max,
                            mean_iterations=it_sum / max(n_samples, 1), baseline_forces=f_base,
                            labels=tuple(model.labels))
 
