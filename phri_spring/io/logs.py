@@ -233,45 +233,81 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
         raise DataError("no data rows; expected at least one sample", file=path)
 
 
-def prefetch(iterable, depth: int = 2):
+def prefetch(iterable, depth: int = 2) -> "Prefetch":
     """Iterate on a background thread, ``depth`` items ahead (reading overlaps computing).
 
-    Exceptions raised by the iterable are re-raised in the caller, in order.
+    The thread starts at once, so the first items are being produced while the
+    caller still sets up. Exceptions raised by the iterable are re-raised in the
+    caller, in order. Close the returned iterator (or use it as a context
+    manager) when leaving before the end; that stops the thread.
     """
-    import queue
-    import threading
+    return Prefetch(iterable, depth)
 
-    q: "queue.Queue" = queue.Queue(maxsize=depth)
-    done = object()
-    stop = threading.Event()
 
-    def run():
+class Prefetch:
+    """Iterator returned by :func:`prefetch`."""
+
+    _DONE = object()
+
+    def __init__(self, iterable, depth: int = 2):
+        import queue
+        import threading
+
+        self._q: "queue.Queue" = queue.Queue(maxsize=max(1, int(depth)))
+        self._stop = threading.Event()
+        self._finished = False
+        self._thread = threading.Thread(target=self._run, args=(iterable,),
+                                        name="phri-reader", daemon=True)
+        self._thread.start()
+
+    def _put(self, item) -> bool:
+        import queue
+
+        while not self._stop.is_set():
+            try:
+                self._q.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _run(self, iterable):
         try:
             for item in iterable:
-                while not stop.is_set():
-                    try:
-                        q.put((item, None), timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-                if stop.is_set():
+                if not self._put((item, None)):
                     return
-            q.put((done, None))
+            self._put((self._DONE, None))
         except BaseException as exc:  # noqa: BLE001 - handed to the caller
-            q.put((done, exc))
+            self._put((self._DONE, exc))
 
-    th = threading.Thread(target=run, name="phri-reader", daemon=True)
-    th.start()
-    try:
-        while True:
-            item, exc = q.get()
-            if item is done:
-                if exc is not None:
-                    raise exc
-                return
-            yield item
-    finally:
-        stop.set()
+    def __iter__(self):
+        return self
+
+    def __next__(self):
+        if self._finished:
+            raise StopIteration
+        item, exc = self._q.get()
+        if item is self._DONE:
+            self.close()
+            if exc is not None:
+                raise exc
+            raise StopIteration
+        return item
+
+    def close(self) -> None:
+        """Stop the background thread (it ends after its current item)."""
+        self._finished = True
+        self._stop.set()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+    def __del__(self):
+        self.close()
 
 
 def read_wrench_log(path, columns: Optional[dict] = None):
