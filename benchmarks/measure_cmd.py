@@ -1,12 +1,16 @@
-"""Time a command and read its peak resident memory, from a small process.
+"""Time commands and read their peak resident memory, from a small process.
 
-    python benchmarks/measure_cmd.py REPEATS CMD [ARG ...]   -> JSON on stdout
+    python benchmarks/measure_cmd.py SPEC_JSON   -> JSON on stdout
 
-Runs CMD once as a warm-up (when REPEATS > 1), then REPEATS times, and prints
-the wall times [s] and peak RSS [MB] (the kernel's ru_maxrss of each run). It
-exists because the peak RSS the kernel reports for a child includes the
-memory of the process that forked it: measured from a large benchmark
-process, a small command would look large.
+SPEC_JSON is ``{"repeats": N, "warmup": true, "cmds": [[CMD, ARG, ...], ...]}``.
+The commands run in rotation (A B C A B C ...), ``repeats`` rounds, after one
+warm-up round when ``warmup`` is true, so that the machine's drift during the
+measurement touches every command alike. Prints, for each command, the wall
+times [s] and peak RSS [MB] (the kernel's ru_maxrss of each run).
+
+It exists because the peak RSS the kernel reports for a child includes the
+memory of the process that forked it: measured from a large benchmark process,
+a small command would look large.
 """
 
 import json
@@ -16,25 +20,35 @@ import sys
 import time
 
 
+def run_once(cmd):
+    t0 = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    err = proc.stderr.read().decode(errors="replace")
+    proc.stderr.close()
+    if os.waitstatus_to_exitcode(status) != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed: {err}")
+    return wall, usage.ru_maxrss / 1024.0
+
+
 def main():
-    repeats = int(sys.argv[1])
-    cmd = sys.argv[2:]
-    walls, rss = [], []
-    for i in range(repeats + 1):
-        t0 = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(proc.pid, 0)
-        wall = time.perf_counter() - t0
-        err = proc.stderr.read().decode(errors="replace")
-        proc.stderr.close()
-        if os.waitstatus_to_exitcode(status) != 0:
-            print(json.dumps({"error": f"{' '.join(cmd)} failed: {err}"}))
-            return
-        if i == 0 and repeats > 1:
-            continue
-        walls.append(wall)
-        rss.append(usage.ru_maxrss / 1024.0)
-    print(json.dumps({"walls": walls, "rss": rss}))
+    spec = json.loads(sys.argv[1])
+    cmds = spec["cmds"]
+    out = [{"walls": [], "rss": []} for _ in cmds]
+    try:
+        rounds = int(spec["repeats"]) + (1 if spec.get("warmup", True) else 0)
+        for r in range(rounds):
+            for cmd, res in zip(cmds, out):
+                wall, rss = run_once(cmd)
+                if spec.get("warmup", True) and r == 0:
+                    continue
+                res["walls"].append(wall)
+                res["rss"].append(rss)
+    except RuntimeError as exc:
+        print(json.dumps({"error": str(exc)}))
+        return
+    print(json.dumps({"results": out}))
 
 
 if __name__ == "__main__":

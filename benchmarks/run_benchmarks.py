@@ -70,19 +70,27 @@ def make_log(path: Path, n: int, seed: int) -> None:
     writer.close()
 
 
-def run_process(cmd, repeats: int):
-    """Median wall time [s] and max peak RSS [MB] of a command (after one warm-up).
+def run_interleaved(cmds, repeats: int, warmup: bool = True):
+    """For each command: (median wall time [s], max peak RSS [MB], all wall times).
 
-    Measured by benchmarks/measure_cmd.py, a small process, so that this
-    (large) process's memory does not count in the command's peak RSS.
+    The commands run in rotation (A B C A B C ...) after a warm-up round, so the
+    machine's drift touches them alike. Measured by benchmarks/measure_cmd.py, a
+    small process, so that this (large) process's memory does not count in a
+    command's peak RSS.
     """
+    spec = {"repeats": repeats, "warmup": warmup, "cmds": [[str(a) for a in c] for c in cmds]}
     out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "measure_cmd.py"),
-                          str(repeats), *map(str, cmd)], capture_output=True, text=True,
-                         env=child_env(), cwd=ROOT, check=True).stdout
+                          json.dumps(spec)], capture_output=True, text=True, env=child_env(),
+                         cwd=ROOT, check=True).stdout
     res = json.loads(out)
     if "error" in res:
         raise RuntimeError(res["error"])
-    return statistics.median(res["walls"]), max(res["rss"]), res["walls"]
+    return [(statistics.median(r["walls"]), max(r["rss"]), r["walls"]) for r in res["results"]]
+
+
+def run_process(cmd, repeats: int, warmup: bool = True):
+    """Median wall time [s], max peak RSS [MB] and all wall times of one command."""
+    return run_interleaved([cmd], repeats, warmup)[0]
 
 
 def compile_bytecode() -> None:
@@ -166,53 +174,59 @@ def main():
     row("`phri --help` start-up", f"{t_help:.3f} s", f"{t_py:.3f} s (bare python)",
         f"{t_help / t_py:.1f}x", "<= 0.3 s", t_help <= 0.3)
 
-    # 2. end to end, CSV
+    # 2. end to end, CSV and Parquet, taking turns (the ratio between them stays fair
+    # when the machine's speed drifts); then the per-sample loop, in the same run
     out_csv = work / "forces.csv"
-    t_csv, rss_csv, _ = run_process(phri + ["simulate", str(CONFIG), str(log_csv), "-o",
-                                            str(out_csv), "-q"], reps)
+    (t_csv, rss_csv, _), (t_pq, rss_pq, _) = run_interleaved(
+        [phri + ["simulate", str(CONFIG), str(log_csv), "-o", str(out_csv), "-q"],
+         phri + ["simulate", str(CONFIG), str(log_pq), "-o", str(work / "forces.parquet"), "-q"]],
+        reps)
     base_reps = 1 if args.quick else 3
     t_base, rss_base, _ = run_process([sys.executable, str(ROOT / "benchmarks" / "baseline_loop.py"),
                                        str(CONFIG), str(log_csv), str(work / "base.csv")],
-                                      base_reps)
+                                      base_reps, warmup=False)
     row("simulate 1 h @ 100 Hz (360,000 samples), CSV -> CSV", f"{t_csv:.2f} s",
         f"{t_base:.1f} s (per-sample loop)", f"{t_base / t_csv:.1f}x faster",
         "<= 1.5 s and >= 9x", t_csv <= 1.5 and t_base / t_csv >= 9)
     row("  peak memory, CSV -> CSV", f"{rss_csv:.0f} MB", f"{rss_base:.0f} MB", "",
         "<= 500 MB", rss_csv <= 500)
 
-    # 3. end to end, Parquet
-    t_pq, rss_pq, _ = run_process(phri + ["simulate", str(CONFIG), str(log_pq), "-o",
-                                          str(work / "forces.parquet"), "-q"], reps)
+    # 3. end to end, Parquet (measured above, in turns with CSV)
     row("simulate 1 h, Parquet -> Parquet", f"{t_pq:.2f} s", f"{t_csv:.2f} s (CSV)",
         f"{t_csv / t_pq:.1f}x", "<= 0.8 s", t_pq <= 0.8)
     row("  peak memory, Parquet -> Parquet", f"{rss_pq:.0f} MB", "", "", "<= 500 MB",
         rss_pq <= 500)
 
-    # 4. longer logs: streaming in bounded memory, time linear in length
+    # 4. longer logs: streaming in bounded memory, time linear in length. The 100-sample,
+    # 1 h, 3 h and 10 h runs take turns (3 rounds after a warm-up round), so that a slow
+    # spell of the machine does not fall on one length only.
     if not args.quick:
-        t_tiny, _, _ = run_process(phri + ["simulate", str(CONFIG), str(tiny), "-o",
-                                           str(work / "forces_tiny.csv"), "-q"], reps)
-        per = {1: (t_csv - t_tiny) / n1h * 1e6}
-        rss = {1: rss_csv}
+        sizes = {0: 100, 1: n1h, 3: 3 * n1h, 10: 10 * n1h}
+        logs_h = {0: tiny, 1: log_csv}
         for hours, seed in ((3, 13), (10, 11)):
-            log_h = work / f"log_{hours}h.csv"
-            make_log(log_h, hours * n1h, seed=seed)
-            # median of 3 runs: a single long run is at the mercy of the machine's drift
-            t_h, rss[hours], _ = run_process(phri + ["simulate", str(CONFIG), str(log_h), "-o",
-                                                     str(work / f"forces_{hours}h.csv"), "-q"], 3)
-            per[hours] = (t_h - t_tiny) / (hours * n1h) * 1e6
-            row(f"simulate {hours} h ({hours * n1h:,} samples), CSV -> CSV", f"{t_h:.1f} s",
-                f"{t_csv:.2f} s (1 h); {t_tiny:.2f} s start-up (100 samples)",
-                f"{t_h / t_csv:.1f}x the 1 h time", "", True)
-            log_h.unlink()
-            (work / f"forces_{hours}h.csv").unlink()
+            logs_h[hours] = work / f"log_{hours}h.csv"
+            make_log(logs_h[hours], sizes[hours], seed=seed)
+        cmds = [phri + ["simulate", str(CONFIG), str(logs_h[h]), "-o",
+                        str(work / f"forces_{h}h.csv"), "-q"] for h in sizes]
+        timed = dict(zip(sizes, run_interleaved(cmds, 3)))
+        t_tiny = timed[0][0]
+        per = {h: (timed[h][0] - t_tiny) / sizes[h] * 1e6 for h in (1, 3, 10)}
+        for hours in (3, 10):
+            row(f"simulate {hours} h ({sizes[hours]:,} samples), CSV -> CSV",
+                f"{timed[hours][0]:.1f} s",
+                f"{timed[1][0]:.2f} s (1 h); {t_tiny:.2f} s start-up (100 samples)",
+                f"{timed[hours][0] / timed[1][0]:.1f}x the 1 h time", "", True)
         spread = max(per.values()) / min(per.values())
-        row("  time per sample beyond start-up, 1 h / 3 h / 10 h",
+        row("  time per sample beyond start-up, 1 h / 3 h / 10 h (runs taking turns)",
             " / ".join(f"{per[h]:.2f}" for h in (1, 3, 10)) + " us", "", f"max/min {spread:.2f}",
-            "linear: max/min <= 1.25 (run-to-run noise here is about 20 %)", spread <= 1.25)
+            "linear: max/min <= 1.25", spread <= 1.25)
         row("  peak memory, 1 h / 3 h / 10 h",
-            " / ".join(f"{rss[h]:.0f}" for h in (1, 3, 10)) + " MB", "", "", "<= 500 MB",
-            max(rss.values()) <= 500)
+            " / ".join(f"{timed[h][1]:.0f}" for h in (1, 3, 10)) + " MB", "", "", "<= 500 MB",
+            max(timed[h][1] for h in (1, 3, 10)) <= 500)
+        for hours in (3, 10):
+            logs_h[hours].unlink()
+        for h in sizes:
+            (work / f"forces_{h}h.csv").unlink(missing_ok=True)
 
     # in-process scenarios: one core (pinned only now: child processes would inherit
     # the affinity, and forking a parent holding large arrays inflates a child's peak RSS)

@@ -88,16 +88,22 @@ def test_spd_batched_solver_matches_numpy():
                                atol=1e-12)
 
 
+def _csv_log(tmp_path, n: int, seed: int):
+    """A smooth random wrench log written as CSV: (path, time, wrench)."""
+    t, W = smooth_random_log(n, seed=seed)
+    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+    df.insert(0, "time", t)
+    log = tmp_path / "log.csv"
+    df.to_csv(log, index=False)
+    return log, t, W
+
+
 def test_simulate_file_streams_like_in_memory(tmp_path):
     from phri_spring.io.config import load_config
     from phri_spring.workflows.simulate import simulate, simulate_file
 
     cfg = load_config("configs/harmony_upper_arm.yaml")
-    t, W = smooth_random_log(3000, seed=21)
-    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-    df.insert(0, "time", t)
-    log = tmp_path / "log.csv"
-    df.to_csv(log, index=False)
+    log, t, W = _csv_log(tmp_path, 3000, seed=21)
     mem = simulate(cfg, W, time=t, baseline="window:1:3").to_frame()
     # CSV keeps 6 decimals by default (1 uN), -1 keeps every digit; Parquet is binary
     for ext, decimals, tol in (("csv", 6, 5.000001e-7), ("csv", -1, 1e-9), ("parquet", 6, 1e-9)):
@@ -267,11 +273,7 @@ def test_streamed_summary_peak_is_the_first_largest_over_all_chunks(tmp_path):
     from phri_spring.workflows.simulate import simulate, simulate_file
 
     cfg = load_config("configs/harmony_upper_arm.yaml")
-    t, W = smooth_random_log(9000, seed=5)
-    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-    df.insert(0, "time", t)
-    log = tmp_path / "log.csv"
-    df.to_csv(log, index=False)
+    log, t, W = _csv_log(tmp_path, 9000, seed=5)
     mem = simulate(cfg, W, time=t)
     j = int(np.nanargmax(mem.peak_pressure_kpa))           # numpy: the first largest
     for ext in ("csv", "parquet"):
