@@ -2,11 +2,15 @@
 
     python benchmarks/measure_cmd.py SPEC_JSON   -> JSON on stdout
 
-SPEC_JSON is ``{"repeats": N, "warmup": true, "cmds": [[CMD, ARG, ...], ...]}``.
-The commands run in rotation (A B C A B C ...), ``repeats`` rounds, after one
-warm-up round when ``warmup`` is true, so that the machine's drift during the
-measurement touches every command alike. Prints, for each command, the wall
-times [s] and peak RSS [MB] (the kernel's ru_maxrss of each run).
+SPEC_JSON is ``{"repeats": N, "warmup": true, "cmds": [[CMD, ARG, ...], ...],
+"outputs": [PATH or null, ...]}``. The commands run in rotation (A B C A B C
+...), ``repeats`` rounds, after one warm-up round when ``warmup`` is true, so
+that the machine's drift during the measurement touches every command alike.
+Before each run (not timed) the command's output file, if given, is deleted and
+the file systems are synced, so that every run writes a new file and no run
+pays for the disk write-back of the one before (a 10 h output is 720 MB).
+Prints, for each command, the wall times [s] and peak RSS [MB] (the kernel's
+ru_maxrss of each run).
 
 It exists because the peak RSS the kernel reports for a child includes the
 memory of the process that forked it: measured from a large benchmark process,
@@ -35,11 +39,16 @@ def run_once(cmd):
 def main():
     spec = json.loads(sys.argv[1])
     cmds = spec["cmds"]
+    outputs = spec.get("outputs") or [None] * len(cmds)
     out = [{"walls": [], "rss": []} for _ in cmds]
     try:
         rounds = int(spec["repeats"]) + (1 if spec.get("warmup", True) else 0)
         for r in range(rounds):
-            for cmd, res in zip(cmds, out):
+            for cmd, output, res in zip(cmds, outputs, out):
+                if output and os.path.exists(output):
+                    os.remove(output)
+                if hasattr(os, "sync"):
+                    os.sync()
                 wall, rss = run_once(cmd)
                 if spec.get("warmup", True) and r == 0:
                     continue

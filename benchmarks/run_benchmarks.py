@@ -74,11 +74,14 @@ def run_interleaved(cmds, repeats: int, warmup: bool = True):
     """For each command: (median wall time [s], max peak RSS [MB], all wall times).
 
     The commands run in rotation (A B C A B C ...) after a warm-up round, so the
-    machine's drift touches them alike. Measured by benchmarks/measure_cmd.py, a
-    small process, so that this (large) process's memory does not count in a
-    command's peak RSS.
+    machine's drift touches them alike; before each run the command's output
+    (the argument after ``-o``) is deleted and the file systems synced, untimed.
+    Measured by benchmarks/measure_cmd.py, a small process, so that this (large)
+    process's memory does not count in a command's peak RSS.
     """
-    spec = {"repeats": repeats, "warmup": warmup, "cmds": [[str(a) for a in c] for c in cmds]}
+    cmds = [[str(a) for a in c] for c in cmds]
+    outputs = [c[c.index("-o") + 1] if "-o" in c else None for c in cmds]
+    spec = {"repeats": repeats, "warmup": warmup, "cmds": cmds, "outputs": outputs}
     out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "measure_cmd.py"),
                           json.dumps(spec)], capture_output=True, text=True, env=child_env(),
                          cwd=ROOT, check=True).stdout
@@ -198,7 +201,7 @@ def main():
         rss_pq <= 500)
 
     # 4. longer logs: streaming in bounded memory, time linear in length. The 100-sample,
-    # 1 h, 3 h and 10 h runs take turns (3 rounds after a warm-up round), so that a slow
+    # 1 h, 3 h and 10 h runs take turns (5 rounds after a warm-up round), so that a slow
     # spell of the machine does not fall on one length only.
     if not args.quick:
         sizes = {0: 100, 1: n1h, 3: 3 * n1h, 10: 10 * n1h}
@@ -208,7 +211,7 @@ def main():
             make_log(logs_h[hours], sizes[hours], seed=seed)
         cmds = [phri + ["simulate", str(CONFIG), str(logs_h[h]), "-o",
                         str(work / f"forces_{h}h.csv"), "-q"] for h in sizes]
-        timed = dict(zip(sizes, run_interleaved(cmds, 3)))
+        timed = dict(zip(sizes, run_interleaved(cmds, 5)))
         t_tiny = timed[0][0]
         per = {h: (timed[h][0] - t_tiny) / sizes[h] * 1e6 for h in (1, 3, 10)}
         for hours in (3, 10):
