@@ -302,7 +302,9 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
 
     # fine meshes: fewer rows per chunk, so a chunk's arrays stay about 32 MB
     rows = max(1024, min(int(chunk_rows), (1 << 22) // model.n))
-    chunks = iter_wrench_log(log, colmap, chunk_rows=rows)
+    # (chunk, wrench on the cuff): the transform runs on the reader thread when there is one
+    chunks = ((ch, cuff_wrench(cfg, ch.wrench))
+              for ch in iter_wrench_log(log, colmap, chunk_rows=rows))
     if table_format(log) == "parquet":
         # Parquet is read ahead on a thread (measured: a few % faster), started now so
         # that the first row group is decoded while the writer opens; CSV parsing ahead
@@ -339,8 +341,7 @@ def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, tot
                     return extras
                 return compute
 
-            for number, ch in enumerate(chunks):
-                W = cuff_wrench(cfg, ch.wrench)
+            for number, (ch, W) in enumerate(chunks):
                 sol = solve(model, W, max_iterations=cfg.max_iterations)
                 forces = sol.forces if f_base is None else sol.forces - f_base
                 writer.write(ch.time, forces, extras_of(number, sol))
