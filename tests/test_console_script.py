@@ -38,3 +38,17 @@ def test_exit_codes_and_one_line_errors(tmp_path):
     assert not (tmp_path / "f.csv").exists()
     res = run("--help")
     assert res.returncode == 0 and "simulate" in res.stdout
+
+
+def test_memory_tuning_turns_transparent_huge_pages_off():
+    import pytest
+
+    status = Path("/proc/self/status")
+    if not sys.platform.startswith("linux") or "THP_enabled" not in status.read_text():
+        pytest.skip("needs Linux >= 5.0 (THP_enabled in /proc/self/status)")
+    code = ("from phri_cli.main import _tune_memory; _tune_memory(); "
+            "print(open('/proc/self/status').read().split('THP_enabled:')[1].split()[0])")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=ROOT, timeout=60)
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.strip() == "0"
