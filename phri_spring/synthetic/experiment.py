@@ -45,6 +45,7 @@ from ..io.config import Config, load_config
 from ..physics.loadcell import FORCE_UNITS, MOMENT_UNITS, cuff_to_loadcell
 from ..physics.model import SpringModel, build_model, tissue_element_stiffness
 from ..physics.solver import solve
+from .indenter import PAPER_MEAN, PAPER_SD
 
 __all__ = ["IACT_LOADS_N", "IPASS_LOADS_N", "LOADCELL_AXIS", "Truth", "truth_model",
            "trial_plan", "make_trial", "make_experiment"]
@@ -56,9 +57,6 @@ IPASS_LOADS_N = {"horizontal": (6.0, 13.0, 21.0), "vertical": (5.0, 11.0, 18.0)}
 #: load-cell axis of each loading direction: horizontal = z, vertical = y (paper III, Fig. 8)
 LOADCELL_AXIS = {"horizontal": 2, "vertical": 1}
 
-#: proxy-arm indenter stiffness, mean and SD over 21 locations [N/m] (paper Fig. 6b)
-TISSUE_MEAN_N_PER_M = 4242.0
-TISSUE_SD_N_PER_M = 251.5
 
 
 @dataclass(eq=False)
@@ -111,7 +109,7 @@ def truth_model(cfg: Config, rng: np.random.Generator, *, strap_offset_n: float 
 
     geom = geometry_from_config(cfg)
     n = geom.n
-    k_ind = rng.normal(TISSUE_MEAN_N_PER_M, TISSUE_SD_N_PER_M, n)
+    k_ind = rng.normal(PAPER_MEAN, PAPER_SD, n)  # proxy-arm map, paper Fig. 6b
     k_t = tissue_element_stiffness(k_ind, geom.areas, "indenter", cfg.indenter_diameter)
     k_c = np.asarray(cfg.cuff_stiffness, dtype=float)
     k_c = np.where(np.isfinite(k_c), k_c, 1e7) * np.exp(rng.normal(0.0, cuff_log_sd, n))
