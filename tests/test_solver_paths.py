@@ -252,7 +252,8 @@ def test_threaded_csv_writer_matches_sequential_writer(tmp_path, workers):
     np.testing.assert_array_equal(got[["A0", "A1", "A2"]].to_numpy(), all_f)
 
 
-def test_threaded_csv_writer_reraises_a_worker_error(tmp_path):
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+def test_threaded_writer_reraises_a_worker_error(tmp_path, fmt):
     import pyarrow as pa
 
     from phri_spring.io.logs import ForcesWriter
@@ -262,7 +263,7 @@ def test_threaded_csv_writer_reraises_a_worker_error(tmp_path):
 
     chunks = list(_writer_chunks())
     with pytest.raises(ValueError, match="extras failed on chunk 2"):
-        with ForcesWriter(tmp_path / "x.csv", "csv", ["A0", "A1", "A2"],
+        with ForcesWriter(tmp_path / f"x.{fmt}", fmt, ["A0", "A1", "A2"],
                           {"ok": pa.bool_()}, workers=2) as w:
             for i, (t, f, extras) in enumerate(chunks):
                 w.write(t, f, broken if i == 2 else {"ok": extras["ok"]})

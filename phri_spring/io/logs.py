@@ -398,9 +398,9 @@ class ForcesWriter:
     holding the GIL). CSV chunks are encoded to bytes by ``workers`` threads at
     once and written in order (formatting numbers as text is the costliest
     step of a CSV run: measured 0.9 s of CPU for a one-hour log); Parquet
-    chunks go through one writer thread. At most ``workers + 1`` chunks
-    are in flight, which bounds memory. Use as a context manager around an
-    already-atomic temporary path; an error on a background thread is raised
+    chunks are written by one thread, in order. At most ``max(2, workers) + 1``
+    chunks are in flight, which bounds memory. Use as a context manager around
+    an already-atomic temporary path; an error on a background thread is raised
     in the caller.
     """
 
@@ -416,7 +416,8 @@ class ForcesWriter:
         fields += [pa.field(name, typ) for name, typ in extra_types.items()]
         self.schema = pa.schema(fields)
         self.threaded = threaded
-        self.workers = max(1, int(workers))
+        # Parquet has one writer, so one thread; CSV encodes on `workers` threads
+        self.workers = max(1, int(workers)) if fmt == "csv" else 1
         # CSV only: forces and other floats (not time) rounded to this many decimals
         # (6 = 1 uN): halves the file and the formatting time; None keeps every digit
         self.decimals = None if decimals is None or decimals < 0 else int(decimals)
@@ -425,9 +426,6 @@ class ForcesWriter:
         self._csv_options = None
         self._pool = None
         self._pending = None
-        self._queue = None
-        self._thread = None
-        self._error = None
 
     def __enter__(self):
         import pyarrow as pa
@@ -439,55 +437,32 @@ class ForcesWriter:
             plain = all(re.fullmatch(r"[\w.+-]+", str(x)) for x in
                         list(self.schema.names) + list(self.labels))
             style = "none" if plain else "needed"
-            try:
-                opts = pacsv.WriteOptions(include_header=False, batch_size=16384,
-                                          quoting_style=style, quoting_header=style)
-            except TypeError:  # pragma: no cover - pyarrow without quoting_style
-                opts = pacsv.WriteOptions(include_header=False, batch_size=16384)
-            self._csv_options = opts
+            self._csv_options = _csv_write_options(style, header=False)
             self._file = open(self.path, "wb")
             try:
                 header = pa.BufferOutputStream()
-                with pacsv.CSVWriter(header, self.schema, write_options=_with_header(opts)):
+                with pacsv.CSVWriter(header, self.schema,
+                                     write_options=_csv_write_options(style, header=True)):
                     pass
                 self._file.write(header.getvalue())
             except BaseException:
                 self._file.close()
                 raise
-            if self.threaded:
-                import collections
-                from concurrent.futures import ThreadPoolExecutor
+        else:
+            import pyarrow.parquet as pq
 
-                self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="phri-csv")
-                self._pending = collections.deque()
-            return self
-        import pyarrow.parquet as pq
-
-        # dictionary encoding only for the label column: on float columns it costs
-        # more than it saves
-        dict_cols = [f.name for f in self.schema if pa.types.is_dictionary(f.type)]
-        self._writer = pq.ParquetWriter(str(self.path), self.schema, compression="snappy",
-                                        use_dictionary=dict_cols or False)
+            # dictionary encoding only for the label column: on float columns it costs
+            # more than it saves
+            dict_cols = [f.name for f in self.schema if pa.types.is_dictionary(f.type)]
+            self._writer = pq.ParquetWriter(str(self.path), self.schema, compression="snappy",
+                                            use_dictionary=dict_cols or False)
         if self.threaded:
-            import queue
-            import threading
+            import collections
+            from concurrent.futures import ThreadPoolExecutor
 
-            self._queue = queue.Queue(maxsize=2)
-            self._thread = threading.Thread(target=self._run, name="phri-writer", daemon=True)
-            self._thread.start()
+            self._pool = ThreadPoolExecutor(self.workers, thread_name_prefix="phri-writer")
+            self._pending = collections.deque()
         return self
-
-    def _run(self):
-        while True:
-            item = self._queue.get()
-            if item is None:
-                return
-            if self._error is not None:
-                continue
-            try:
-                self._write_now(*item)
-            except BaseException as exc:  # noqa: BLE001 - re-raised in the caller
-                self._error = exc
 
     def _table(self, time, forces, extras):
         import pyarrow as pa
@@ -514,25 +489,25 @@ class ForcesWriter:
                 cols.append(_arrow_array(val, None if pa.types.is_boolean(typ) else typ))
         return pa.Table.from_arrays(cols, schema=self.schema)
 
-    def _csv_bytes(self, time, forces, extras):
+    def _convert(self, time, forces, extras):
+        """One chunk as CSV bytes (written later, in order), or written to the Parquet file."""
+        table = self._table(time, forces, extras)
+        if self.fmt != "csv":
+            self._writer.write_table(table)
+            return None
         import pyarrow as pa
         import pyarrow.csv as pacsv
 
         sink = pa.BufferOutputStream()
-        pacsv.write_csv(self._table(time, forces, extras), sink, write_options=self._csv_options)
+        pacsv.write_csv(table, sink, write_options=self._csv_options)
         return sink.getvalue()
 
-    def _write_now(self, time, forces, extras):
-        if self.fmt == "csv":
-            self._file.write(self._csv_bytes(time, forces, extras))
-        else:
-            self._writer.write_table(self._table(time, forces, extras))
-
     def _flush_pending(self, keep: int) -> None:
-        # write finished chunks in order until at most `keep` are in flight
+        # finish chunks in order until at most `keep` are in flight
         while len(self._pending) > keep:
             data = self._pending.popleft().result()
-            self._file.write(data)
+            if data is not None:
+                self._file.write(data)
 
     def write(self, time, forces, extras: dict) -> None:
         """Queue (or write) one chunk: time (k,), forces (k, n) [N], extras by column name.
@@ -540,15 +515,13 @@ class ForcesWriter:
         ``extras`` may be a callable returning that mapping: it is then called on
         a background thread. A dictionary-typed extra column takes ``(indices, names)``.
         """
-        if self._error is not None:
-            raise self._error
-        if self._pool is not None:
-            self._pending.append(self._pool.submit(self._csv_bytes, time, forces, extras))
-            self._flush_pending(keep=self.workers)
-        elif self._queue is not None:
-            self._queue.put((time, forces, extras))
-        else:
-            self._write_now(time, forces, extras)
+        if self._pool is None:
+            data = self._convert(time, forces, extras)
+            if data is not None:
+                self._file.write(data)
+            return
+        self._pending.append(self._pool.submit(self._convert, time, forces, extras))
+        self._flush_pending(keep=max(2, self.workers))
 
     def __exit__(self, *exc):
         try:
@@ -560,28 +533,20 @@ class ForcesWriter:
                     for fut in self._pending:
                         fut.cancel()
                     self._pool.shutdown(wait=True)
-            if self._queue is not None:
-                self._queue.put(None)
-                self._thread.join()
         finally:
             if self._writer is not None:
                 self._writer.close()
             if self._file is not None:
                 self._file.close()
-        if self._error is not None and exc[0] is None:
-            raise self._error
         return False
 
 
-def _with_header(opts):
-    """The same CSV write options, with the header line."""
+def _csv_write_options(style: str, *, header: bool):
+    """pyarrow CSV write options: quoting ``style`` for names and values, header line or not."""
     import pyarrow.csv as pacsv
 
-    kw = {"include_header": True, "batch_size": opts.batch_size, "delimiter": opts.delimiter}
-    for name in ("quoting_style", "quoting_header"):
-        if hasattr(opts, name):
-            kw[name] = getattr(opts, name)
     try:
-        return pacsv.WriteOptions(**kw)
-    except TypeError:  # pragma: no cover - older pyarrow
-        return pacsv.WriteOptions(include_header=True, batch_size=opts.batch_size)
+        return pacsv.WriteOptions(include_header=header, batch_size=16384,
+                                  quoting_style=style, quoting_header=style)
+    except TypeError:  # pragma: no cover - pyarrow without quoting_style
+        return pacsv.WriteOptions(include_header=header, batch_size=16384)
