@@ -313,8 +313,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     try:
         return _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total)
     finally:
-        if hasattr(chunks, "close"):
-            chunks.close()
+        chunks.close()  # stops the reader thread (or the generator) on an early exit
 
 
 def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total):
