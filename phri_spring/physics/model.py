@@ -73,6 +73,12 @@ class SpringModel:
     def law(self) -> LinearContact:
         return LinearContact(self.k)
 
+    def tangent_stiffness(self, u) -> np.ndarray:
+        """Tangent stiffness K_s + sum_{e in contact} k_e b_e b_e^T (6, 6) at displacement u (6,)."""
+        g = self.delta0 + self.b @ np.asarray(u, dtype=float)
+        kS = self.k * (g > 0)
+        return self.K_s + (self.b.T * kS) @ self.b
+
 
 def tissue_element_stiffness(values, areas, basis: str = "indenter",
                              indenter_diameter: float = 0.009) -> np.ndarray:
