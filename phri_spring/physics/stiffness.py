@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["interface_stiffness", "stiffness_at_loadcell"]
+__all__ = ["interface_stiffness", "stiffness_at_loadcell", "principal_stiffness"]
 
 
 def interface_stiffness(model, wrench=None, *, max_iterations: int = 100) -> np.ndarray:
@@ -79,3 +79,27 @@ def stiffness_at_loadcell(K, rotation=None, position=(0.0, 0.0, 0.0)) -> np.ndar
     K = np.asarray(K, dtype=float)
     out = Jinv @ K @ Jinv.T
     return 0.5 * (out + out.T)
+
+
+def principal_stiffness(K) -> tuple:
+    """Principal values of the translational and rotational blocks of a stiffness (6, 6).
+
+    A 6x6 stiffness mixes units, so its eigenvalues have no physical meaning; the
+    3x3 force-per-translation block and the 3x3 moment-per-rotation block do.
+
+    Parameters
+    ----------
+    K : array_like, shape (6, 6)
+        Stiffness in SI units (e.g. from :func:`stiffness_at_loadcell`).
+
+    Returns
+    -------
+    translational : ndarray, shape (3,)
+        Eigenvalues of K[:3, :3], ascending [N/m].
+    rotational : ndarray, shape (3,)
+        Eigenvalues of K[3:, 3:], ascending [N*m/rad].
+    """
+    K = np.asarray(K, dtype=float)
+    Kt = 0.5 * (K[:3, :3] + K[:3, :3].T)
+    Kr = 0.5 * (K[3:, 3:] + K[3:, 3:].T)
+    return np.linalg.eigvalsh(Kt), np.linalg.eigvalsh(Kr)
