@@ -66,6 +66,6 @@ def simulate(config, log, output, arm, baseline, columns, decimals, chunk_rows, 
              f"{summary.samples:,} samples; their forces are NaN (column 'converged')")
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
          f"{arm} arm, baseline {base}); peak pressure {summary.max_peak_pressure_kpa:.1f} kPa at "
-         f"{summary.max_peak_element} ({100 * summary.max_pain_ratio:.0f}% of the pain "
-         f"threshold); solver {summary.mean_iterations:.2f} solves/sample on average",
+         f"{summary.max_peak_element}, t = {summary.max_peak_time:g} s "
+         f"({100 * summary.max_pain_ratio:.0f}% of the pain threshold); solver {summary.mean_iterations:.2f} solves/sample on average",
          quiet)

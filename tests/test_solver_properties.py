@@ -38,14 +38,6 @@ def _models(case):
     return pm, rm
 
 
-def _skip_known_degenerate(case, W):
-    """Skip the family of test_zero_compression_solutions_converge (a known solver bug)."""
-    W = np.atleast_2d(W)
-    if len(case["geo"]["rows"]) == 1 and case["tension"] == 0.0 and \
-            np.any(np.all(W[:, 1:4] == 0.0, axis=1)):
-        assume(False)
-
-
 def _wrench_scale(rm):
     """Scale vector turning a wrench (N, N*m) into comparable numbers (N, N)."""
     L = rm.length
@@ -58,7 +50,6 @@ def _wrench_scale(rm):
 def test_equilibrium_complementarity_and_reference(case, ws):
     pm, rm = _models(case)
     W = np.array(ws)
-    _skip_known_degenerate(case, W)
     sol = solve(pm, W)
     assert sol.converged.all()
     assert np.all(np.isfinite(sol.forces))
@@ -103,7 +94,6 @@ def test_equilibrium_complementarity_and_reference(case, ws):
 @given(case=physics_cases(max_rows=3, max_count=8), w=wrenches())
 def test_single_sample_call_matches_reference(case, w):
     pm, rm = _models(case)
-    _skip_known_degenerate(case, w)
     sol = solve(pm, w)                     # a (6,) wrench: no sample axis
     assert sol.forces.shape == (rm.n,)
     assert bool(sol.converged)
@@ -149,7 +139,6 @@ def test_linearity_while_no_contact_changes(case, w1, w2, hoop, tension):
         case = dict(case, strap="hoop", tension=tension)
     pm, rm = _models(case)
     W = np.array([np.zeros(6), w1, w2, w1 + w2])
-    _skip_known_degenerate(case, W[1:])
     sol = solve(pm, W)
     assert sol.converged.all()
     # the same active set for all four wrenches (with the hoop strap at small loads:
@@ -190,7 +179,6 @@ def test_rigid_arm_limit_as_tissue_stiffens(case, ws):
     case = dict(case, arm="rigid")
     pm_rigid, rm = _models(case)
     W = np.array(ws)
-    _skip_known_degenerate(case, W)
     f_rigid = solve(pm_rigid, W).forces
     kc = np.asarray(case["kc"])
     errs = []

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
@@ -11,12 +11,21 @@ from .preload import handles_preload, hoop_preload
 from .springs import (LinearContact, element_stiffness, indenter_to_element,
                       shear_ratio_from_poisson, shear_stiffness_matrix)
 
-__all__ = ["SpringModel", "build_model", "tissue_element_stiffness"]
+__all__ = ["SpringModel", "build_model", "tissue_element_stiffness", "field_table"]
+
+
+def _unit(unit: str, source: str) -> dict:
+    return {"unit": unit, "source": source}
 
 
 @dataclass(frozen=True, eq=False)
 class SpringModel:
-    """A cuff-arm spring network ready to solve (SPEC sections 1-4).
+    """A cuff-arm spring network ready to solve (docs/model.md sections 1-4).
+
+    Every array field declares its unit and the section of docs/model.md that
+    defines it in ``dataclasses.fields(SpringModel)[i].metadata`` (see
+    :func:`field_table`). Derived arrays the solver reuses (``bT``, ``bb``, ...)
+    are computed once when the model is made; a model holds no cache.
 
     Attributes
     ----------
@@ -28,7 +37,8 @@ class SpringModel:
     k_shear : ndarray, shape (n,)
         Tangential stiffness k_s,e [N/m].
     K_s : ndarray, shape (6, 6)
-        Shear stiffness matrix of the cuff displacement.
+        Shear stiffness matrix of the cuff displacement u = (t [m], w [rad]), about
+        the cuff origin: blocks [N/m, N/rad; N*m/m, N*m/rad].
     delta0 : ndarray, shape (n,)
         Initial compression [m] (hoop preload), zero otherwise.
     f0 : ndarray, shape (n,)
@@ -39,19 +49,50 @@ class SpringModel:
         ``hoop`` or ``handles``.
     pain_threshold_kpa : float
         Pressure pain threshold [kPa].
+    bT : ndarray, shape (6, n)
+        b transposed, C-contiguous [-, m] (derived).
+    bb : ndarray, shape (n, 36)
+        Row-major outer products b_e b_e^T [-, m, m^2] (derived).
+    delta0_b : ndarray, shape (n, 6)
+        delta0_e b_e [m, m^2] (derived).
+    b_absmax : ndarray, shape (6,)
+        max_e |b_ej| [-, m] (derived; round-off scale of the compression).
+    delta0_absmax : float
+        max_e |delta0_e| [m] (derived).
+    inv_area_kpa : ndarray, shape (n,)
+        1 / (1000 A_e) [1/(kPa*m^2) = 1/(1000 N)]: force [N] times it is pressure [kPa] (derived).
     """
 
     geometry: CuffGeometry
     arm: str
-    k: np.ndarray
-    k_shear: np.ndarray
-    K_s: np.ndarray
-    delta0: np.ndarray
-    f0: np.ndarray
-    W_pre: np.ndarray
+    k: np.ndarray = field(metadata=_unit("N/m", "docs/model.md section 2"))
+    k_shear: np.ndarray = field(metadata=_unit("N/m", "docs/model.md section 2"))
+    K_s: np.ndarray = field(metadata=_unit("[[N/m, N/rad], [N*m/m, N*m/rad]]",
+                                           "docs/model.md section 2"))
+    delta0: np.ndarray = field(metadata=_unit("m", "docs/model.md section 3"))
+    f0: np.ndarray = field(metadata=_unit("N", "docs/model.md section 3"))
+    W_pre: np.ndarray = field(metadata=_unit("[N, N, N, N*m, N*m, N*m]", "docs/model.md section 3"))
     strap_model: str = "hoop"
-    pain_threshold_kpa: float = 120.0
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    pain_threshold_kpa: float = field(default=120.0, metadata=_unit("kPa", "docs/model.md section 4"))
+    bT: np.ndarray = field(init=False, repr=False, metadata=_unit("[-, m]", "derived"))
+    bb: np.ndarray = field(init=False, repr=False, metadata=_unit("[-, m, m^2]", "derived"))
+    delta0_b: np.ndarray = field(init=False, repr=False, metadata=_unit("[m, m^2]", "derived"))
+    b_absmax: np.ndarray = field(init=False, repr=False, metadata=_unit("[-, m]", "derived"))
+    delta0_absmax: float = field(init=False, repr=False, metadata=_unit("m", "derived"))
+    inv_area_kpa: np.ndarray = field(init=False, repr=False, metadata=_unit("1/(1000 N)", "derived"))
+
+    def __post_init__(self):
+        b = self.geometry.b
+        derived = {
+            "bT": np.ascontiguousarray(b.T),
+            "bb": (b[:, :, None] * b[:, None, :]).reshape(-1, 36),
+            "delta0_b": self.delta0[:, None] * b,
+            "b_absmax": np.max(np.abs(b), axis=0),
+            "delta0_absmax": float(np.max(np.abs(self.delta0), initial=0.0)),
+            "inv_area_kpa": 1.0 / (1000.0 * self.geometry.areas),
+        }
+        for name, value in derived.items():
+            object.__setattr__(self, name, value)
 
     @property
     def n(self) -> int:
@@ -78,6 +119,16 @@ class SpringModel:
         g = self.delta0 + self.b @ np.asarray(u, dtype=float)
         kS = self.k * (g > 0)
         return self.K_s + (self.b.T * kS) @ self.b
+
+
+def field_table(model_class=SpringModel) -> list:
+    """``(name, unit, source)`` of every field of a model class that declares a unit.
+
+    >>> ("k", "N/m", "docs/model.md section 2") in field_table()
+    True
+    """
+    return [(f.name, f.metadata["unit"], f.metadata["source"])
+            for f in fields(model_class) if "unit" in f.metadata]
 
 
 def tissue_element_stiffness(values, areas, basis: str = "indenter",

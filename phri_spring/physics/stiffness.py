@@ -68,6 +68,15 @@ def stiffness_at_loadcell(K, rotation=None, position=(0.0, 0.0, 0.0)) -> np.ndar
     -------
     ndarray, shape (6, 6)
         K_lc = J^-1 K J^-T (the sign convention cancels).
+
+    Examples
+    --------
+    A pure translational spring of 1000 N/m seen from 0.1 m away gains rotational
+    stiffness k d^2 = 10 N*m/rad about the axes across the offset:
+
+    >>> K = np.diag([1000.0, 1000.0, 1000.0, 0.0, 0.0, 0.0])
+    >>> np.round(np.diag(stiffness_at_loadcell(K, position=(0.0, -0.1, 0.0))), 9)
+    array([1000., 1000., 1000.,   10.,    0.,   10.])
     """
     R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
     px, py, pz = np.asarray(position, dtype=float)

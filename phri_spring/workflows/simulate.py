@@ -1,8 +1,11 @@
 """``phri simulate`` as library calls: wrench log -> contact force of every element.
 
-- :func:`simulate` works on arrays in memory.
-- :func:`simulate_file` streams a CSV/Parquet log to a CSV/Parquet output in
-  chunks (bounded memory), writing atomically.
+One pipeline: a log is solved chunk by chunk (:func:`_solve_chunk`, the only
+place that turns a chunk of load-cell readings into forces and the extra
+columns); :func:`simulate` is that applied once to arrays in memory, and
+:func:`simulate_file` applies it to every chunk of a CSV/Parquet log, hands each
+chunk to a writer (bounded memory, written atomically) and adds the summary up
+in a :class:`SummaryAccumulator`.
 """
 
 from __future__ import annotations
@@ -19,15 +22,20 @@ from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
 from ..io.logs import ForcesWriter, count_rows, iter_wrench_log, prefetch, table_format
 from ..physics.model import SpringModel
-from ..physics.solver import solve
+from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
-           "SimulateSummary", "EXTRA_COLUMNS", "per_sample_extras"]
+           "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
+           "per_sample_extras"]
 
-#: extra per-sample columns of the forces table, after the element labels
-EXTRA_COLUMNS = ("contacts_in_touch", "peak_pressure_kPa", "peak_pressure_element",
-                 "peak_pressure_to_pain_threshold", "solver_iterations", "converged")
+#: extra per-sample columns of the forces table, after the element labels, with their types
+#: (docs/model.md section 7): counts, kPa, an element label, a ratio, a count, a flag
+EXTRA_COLUMN_TYPES = (("contacts_in_touch", "int64"), ("peak_pressure_kPa", "float64"),
+                      ("peak_pressure_element", "label"),
+                      ("peak_pressure_to_pain_threshold", "float64"),
+                      ("solver_iterations", "int64"), ("converged", "bool"))
+EXTRA_COLUMNS = tuple(name for name, _ in EXTRA_COLUMN_TYPES)
 
 
 @dataclass(frozen=True)
@@ -123,10 +131,7 @@ def per_sample_extras(model: SpringModel, absolute_forces, contact, iterations, 
     Returns ``(extras, peak_index)``; ``extras["peak_pressure_element"]`` is
     ``(indices, labels)`` (dictionary-encoded).
     """
-    inv_area_kpa = model._cache.get("__inv_area_kpa__")
-    if inv_area_kpa is None:
-        inv_area_kpa = model._cache["__inv_area_kpa__"] = 1.0 / (1000.0 * model.areas)
-    pressure = absolute_forces * inv_area_kpa                                  # kPa
+    pressure = absolute_forces * model.inv_area_kpa                                 # kPa
     converged = np.asarray(converged, dtype=bool)
     if not converged.all():  # NaN rows: keep argmax away from them
         pressure = np.where(np.isnan(pressure), -np.inf, pressure)
@@ -187,6 +192,18 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
     Returns
     -------
     SimulationResult
+
+    Examples
+    --------
+    The bundled Harmony config (path relative to the repository root) under a
+    33.4 N load along the load cell's z axis, the paper's second load level:
+
+    >>> import numpy as np
+    >>> res = simulate("configs/harmony_upper_arm.yaml", np.array([[0, 0, 33.4, 0, 0, 0]]))
+    >>> res.forces.shape, bool(res.converged[0])
+    ((1, 21), True)
+    >>> res.labels[int(res.peak_element[0])]                  # where the pressure peaks
+    'A4'
     """
     cfg = _as_config(config)
     base = parse_baseline(baseline)
@@ -209,15 +226,40 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                             f"(the log spans {t.min():g} to {t.max():g} s)", key="--baseline")
         mean_lc = w[mask].mean(axis=0)
     f_base = _baseline_forces(model, cfg, base, mean_lc, cfg.max_iterations)
-    sol = solve(model, cuff_wrench(cfg, w), max_iterations=cfg.max_iterations)
-    extras, idx = per_sample_extras(model, sol.forces, sol.contact, sol.iterations, sol.converged)
-    forces = sol.forces if f_base is None else sol.forces - f_base
-    return SimulationResult(time=t, labels=tuple(model.labels), forces=forces,
+    ch = _solve_chunk(model, cuff_wrench(cfg, w), f_base, cfg.max_iterations, FactorCache())
+    extras, idx = ch.extras()
+    sol = ch.solution
+    return SimulationResult(time=t, labels=tuple(model.labels), forces=ch.forces,
                             absolute_forces=sol.forces, baseline_forces=f_base,
                             contact=sol.contact, iterations=sol.iterations,
                             converged=sol.converged, peak_pressure_kpa=extras["peak_pressure_kPa"],
                             peak_element=idx,
                             pain_ratio=extras["peak_pressure_to_pain_threshold"], extras=extras)
+
+
+class _Chunk:
+    """One solved chunk: its solution, its (baseline-zeroed) forces and, on demand, its extras."""
+
+    __slots__ = ("model", "solution", "forces", "_extras")
+
+    def __init__(self, model, solution, forces):
+        self.model, self.solution, self.forces = model, solution, forces
+        self._extras = None
+
+    def extras(self):
+        """``(extras, peak_index)`` of :func:`per_sample_extras`, computed once."""
+        if self._extras is None:
+            sol = self.solution
+            self._extras = per_sample_extras(self.model, sol.forces, sol.contact, sol.iterations,
+                                             sol.converged)
+        return self._extras
+
+
+def _solve_chunk(model, W, f_base, max_iterations: int, cache: FactorCache) -> _Chunk:
+    """Solve cuff wrenches W (m, 6) and zero the forces by the baseline f_base (n,) or None."""
+    sol = solve(model, W, max_iterations=max_iterations, cache=cache)
+    forces = sol.forces if f_base is None else sol.forces - f_base
+    return _Chunk(model, sol, forces)
 
 
 @dataclass
@@ -230,6 +272,7 @@ class SimulateSummary:
     max_peak_pressure_kpa: float
     max_peak_element: str
     max_pain_ratio: float
+    max_peak_time: float             # [s] time of the (first) largest peak
     max_iterations_used: int
     mean_iterations: float
     baseline_forces: Optional[np.ndarray]
@@ -261,7 +304,8 @@ def _window_mean(log, columns, base: Baseline, chunk_rows: int) -> np.ndarray:
 def simulate_file(config, log, output, *, arm: str = "compliant",
                   baseline: Union[str, Baseline, None] = "none", columns: Optional[dict] = None,
                   chunk_rows: int = 65536, decimals: Optional[int] = 6,
-                  progress: Optional[Callable[[int, Optional[int]], None]] = None
+                  progress: Optional[Callable[[int, Optional[int]], None]] = None,
+                  on_chunk: Optional[Callable[[np.ndarray, np.ndarray, np.ndarray], None]] = None
                   ) -> SimulateSummary:
     """Stream a wrench log through the model into a forces file.
 
@@ -285,6 +329,10 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         always stores full double precision.
     progress : callable(done, total), optional
         Called after each chunk; ``total`` may be None.
+    on_chunk : callable(time, absolute_forces, peak_pressure_kpa), optional
+        Called in order, on the calling thread, once per chunk with its times (m,)
+        [s], absolute forces (m, n) [N] and peak pressures (m,) [kPa] (e.g. to
+        draw the run, :mod:`phri_spring.workflows.plotting`).
     """
     output = Path(output)
     out_fmt = table_format(output, role="output", option="-o/--output")
@@ -311,60 +359,84 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         # competes with the CSV writer's threads (measured: 11 % slower)
         chunks = prefetch(chunks)
     try:
-        return _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total)
+        return _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total,
+                       on_chunk)
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
 
-def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total):
-    n_samples = n_bad = 0
-    it_max = 0
-    it_sum = 0
-    extra_types = _extra_arrow_types()
+class SummaryAccumulator:
+    """Adds up a streamed run's summary chunk by chunk.
+
+    Counts come from the main thread (:meth:`add_solution`); each chunk's
+    largest peak may come from a writer thread, in any order (:meth:`add_peak`);
+    :meth:`summary` keeps the first largest, as one sequential pass would.
+    """
+
+    def __init__(self, labels):
+        self.labels = tuple(labels)
+        self.samples = self.not_converged = self.it_max = self.it_sum = 0
+        self._peaks = {}  # chunk number -> (peak [kPa], element, pain ratio, time [s])
+
+    def add_solution(self, sol) -> None:
+        self.samples += len(sol.iterations)
+        self.not_converged += int((~sol.converged).sum())
+        self.it_max = max(self.it_max, int(sol.iterations.max()))
+        self.it_sum += int(sol.iterations.sum())
+
+    def add_peak(self, number: int, time, extras: dict, peak_index) -> None:
+        pp = extras["peak_pressure_kPa"]
+        if np.isfinite(pp).any():
+            j = int(np.nanargmax(pp))
+            self._peaks[number] = (float(pp[j]), self.labels[int(peak_index[j])],
+                                   float(extras["peak_pressure_to_pain_threshold"][j]),
+                                   float(time[j]))
+
+    def summary(self, output, baseline_forces) -> SimulateSummary:
+        best = (-math.inf, "", -math.inf, math.nan)
+        for number in sorted(self._peaks):
+            if self._peaks[number][0] > best[0]:
+                best = self._peaks[number]
+        return SimulateSummary(output=output, samples=self.samples,
+                               not_converged=self.not_converged, max_peak_pressure_kpa=best[0],
+                               max_peak_element=best[1], max_pain_ratio=best[2],
+                               max_peak_time=best[3], max_iterations_used=self.it_max,
+                               mean_iterations=self.it_sum / max(self.samples, 1),
+                               baseline_forces=baseline_forces, labels=self.labels)
+
+
+def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total, on_chunk):
+    acc = SummaryAccumulator(model.labels)
+    cache = FactorCache()  # one run, one model: factorisations reused across chunks
+
+    def extras_job(number, time, chunk):
+        # runs on a writer thread, overlapping the solving of the next chunks
+        def compute():
+            extras, idx = chunk.extras()
+            acc.add_peak(number, time, extras, idx)
+            return extras
+        return compute
+
     with atomic_file(output) as tmp:
-        with ForcesWriter(tmp, out_fmt, model.labels, extra_types,
+        with ForcesWriter(tmp, out_fmt, model.labels, _extra_arrow_types(),
                           decimals=decimals) as writer:
-            peaks = {}  # chunk number -> (peak [kPa], element, pain ratio)
-
-            def extras_of(number, sol):
-                # runs on a writer thread, overlapping the solving of the next chunks;
-                # chunks may finish out of order, so each keeps its own peak
-                def compute():
-                    extras, idx = per_sample_extras(model, sol.forces, sol.contact,
-                                                    sol.iterations, sol.converged)
-                    pp = extras["peak_pressure_kPa"]
-                    if np.isfinite(pp).any():
-                        j = int(np.nanargmax(pp))
-                        peaks[number] = (float(pp[j]), model.labels[int(idx[j])],
-                                         float(extras["peak_pressure_to_pain_threshold"][j]))
-                    return extras
-                return compute
-
             for number, (ch, W) in enumerate(chunks):
-                sol = solve(model, W, max_iterations=cfg.max_iterations)
-                forces = sol.forces if f_base is None else sol.forces - f_base
-                writer.write(ch.time, forces, extras_of(number, sol))
-                n_samples += len(ch.time)
-                n_bad += int((~sol.converged).sum())
-                it_max = max(it_max, int(sol.iterations.max()))
-                it_sum += int(sol.iterations.sum())
+                chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache)
+                acc.add_solution(chunk.solution)
+                job = extras_job(number, ch.time, chunk)
+                if on_chunk is not None:  # the observer needs the extras now, in order
+                    extras = job()
+                    on_chunk(ch.time, chunk.solution.forces, extras["peak_pressure_kPa"])
+                    job = extras
+                writer.write(ch.time, chunk.forces, job)
                 if progress is not None:
-                    progress(n_samples, total)
-    # the first chunk holding the largest peak (as a sequential pass would find it)
-    best = (-math.inf, "", -math.inf)
-    for number in sorted(peaks):
-        if peaks[number][0] > best[0]:
-            best = peaks[number]
-    return SimulateSummary(output=output, samples=n_samples, not_converged=n_bad,
-                           max_peak_pressure_kpa=best[0], max_peak_element=best[1],
-                           max_pain_ratio=best[2], max_iterations_used=it_max,
-                           mean_iterations=it_sum / max(n_samples, 1), baseline_forces=f_base,
-                           labels=tuple(model.labels))
+                    progress(acc.samples, total)
+    return acc.summary(output, f_base)
 
 
 def _extra_arrow_types() -> dict:
     import pyarrow as pa
 
-    return {"contacts_in_touch": pa.int64(), "peak_pressure_kPa": pa.float64(),
-            "peak_pressure_element": pa.dictionary(pa.int32(), pa.string()), "peak_pressure_to_pain_threshold": pa.float64(),
-            "solver_iterations": pa.int64(), "converged": pa.bool_()}
+    types = {"int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
+             "label": pa.dictionary(pa.int32(), pa.string())}
+    return {name: types[kind] for name, kind in EXTRA_COLUMN_TYPES}
