@@ -114,10 +114,14 @@ class SpringModel:
     def law(self) -> LinearContact:
         return LinearContact(self.k)
 
-    def tangent_stiffness(self, u) -> np.ndarray:
-        """Tangent stiffness K_s + sum_{e in contact} k_e b_e b_e^T (6, 6) at displacement u (6,)."""
-        g = self.delta0 + self.b @ np.asarray(u, dtype=float)
-        kS = self.k * (g > 0)
+    def tangent_stiffness(self, u, contact=None) -> np.ndarray:
+        """Tangent stiffness K_s + sum_{e in contact} k_e b_e b_e^T (6, 6) at displacement u (6,).
+
+        ``contact`` (n,) bool overrides the contact set read off u.
+        """
+        if contact is None:
+            contact = (self.delta0 + self.b @ np.asarray(u, dtype=float)) > 0
+        kS = self.k * np.asarray(contact, dtype=bool)
         return self.K_s + (self.b.T * kS) @ self.b
 
 

@@ -26,7 +26,7 @@ def interface_stiffness(model, wrench=None, *, max_iterations: int = 100) -> np.
 
     Parameters
     ----------
-    model : SpringModel
+    model : SpringModel or CoupledModel
         An assembled model (any arm).
     wrench : array_like, shape (6,), optional
         Wrench on the cuff, cuff frame [N, N*m]; default zero (the preloaded state).
@@ -49,7 +49,7 @@ def interface_stiffness(model, wrench=None, *, max_iterations: int = 100) -> np.
     sol = solve(model, W, max_iterations=max_iterations)
     if not bool(sol.converged):
         raise RuntimeError("the equilibrium did not converge; no tangent stiffness")
-    return model.tangent_stiffness(sol.u)
+    return model.tangent_stiffness(sol.u, sol.contact)
 
 
 def stiffness_at_loadcell(K, rotation=None, position=(0.0, 0.0, 0.0)) -> np.ndarray:

@@ -1,0 +1,447 @@
+"""The coupled tissue model: the arm as a continuum condensed onto the sensor patches.
+
+docs/model.md section 10. The spring model's tissue springs are independent:
+pressing one element moves no other. Here the tissue is a linear elastic layer
+bonded to the bone, condensed onto the n patches of the cuff: K_t (d n x d n,
+d = 3 translations or 6 = translations and rotations per patch, SI units) maps
+the patches' rigid motions q to the generalized forces the patches apply to
+the skin, with its inverse, the surface compliance C_t = K_t^-1, coupling every
+patch to every other. Each patch is joined to the rigid cuff through its cuff
+spring (normal 1/k_c,e, tangential 1/(eta k_c,e), rotations rigid), in series
+with the tissue; normal contact is compression-only (a patch can lift off),
+tangential contact is bonded, as in the spring model.
+
+With P the patch forces (local axes: normal, axial, circumferential, then
+rotations), C = C_t + C_c the total compliance, T the map from the cuff
+displacement u (6,) to the patches' rigid motions and delta the preload
+offset, the equilibrium is the strictly convex quadratic program
+
+    minimise  1/2 P^T C P - delta^T P   subject to  T^T P = W + W_pre,  P_n,e >= 0,
+
+whose multiplier of the six equalities is u. For a contact set S (the patches
+pressing), the tied dofs D (every dof but the normals of patches outside S)
+satisfy C_DD P_D = T_D u + delta_D, so u solves the 6x6 system
+H_S u = W + W_pre - T_D^T C_DD^-1 delta_D with H_S = T_D^T C_DD^-1 T_D, and
+the indicator of the shared active-set kernel (docs/model.md section 9) is the
+normal force f_e for e in S and the penetration (T u + delta)_n,e - (C_t P)_n,e
+for e outside S. With a diagonal K_t (normal k_t,e, tangential eta k_t,e)
+this is exactly the spring model. The safeguard solves the same program
+reduced to the normal forces, a bound-constrained strictly convex quadratic
+program, by the Lawson-Hanson non-negative least-squares method (finite).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve, solve_triangular
+from scipy.optimize import nnls
+
+from .active_set import SET_RTOL, ContactSystem, FactorCache, set_keys
+from .geometry import CuffGeometry
+from .preload import handles_preload, hoop_preload
+from .springs import shear_ratio_from_poisson
+
+__all__ = ["CoupledModel", "CoupledSystem", "build_coupled_model", "patch_frames",
+           "rigid_patch_map"]
+
+
+def patch_frames(geometry: CuffGeometry) -> np.ndarray:
+    """Local axes of every patch, shape (n, 3, 3): rows normal n_e, axial a, circumferential c_e.
+
+    n_e points into the arm; a = +x (along the arm); c_e = n_e x a, the direction
+    of increasing angle theta.
+    """
+    n_vec = geometry.normals
+    a = np.broadcast_to(np.array([1.0, 0.0, 0.0]), n_vec.shape)
+    c = np.cross(n_vec, a)
+    return np.stack([n_vec, a, c], axis=1)
+
+
+def rigid_patch_map(geometry: CuffGeometry, dofs: int) -> np.ndarray:
+    """T (n*dofs, 6): patch e's rigid motion from the cuff displacement u = (t, w).
+
+    Translation of the patch centre t + w x p_e, and (dofs = 6) its rotation w,
+    in the cuff frame's axes.
+    """
+    n = geometry.n
+    T = np.zeros((n, dofs, 6))
+    p = geometry.points
+    T[:, :3, :3] = np.eye(3)
+    # t + w x p = t - p x w: the block -[p]_x
+    T[:, 0, 4], T[:, 0, 5] = p[:, 2], -p[:, 1]
+    T[:, 1, 3], T[:, 1, 5] = -p[:, 2], p[:, 0]
+    T[:, 2, 3], T[:, 2, 4] = p[:, 1], -p[:, 0]
+    if dofs == 6:
+        T[:, 3:, 3:] = np.eye(3)
+    return T.reshape(n * dofs, 6)
+
+
+def _local_rotation(geometry: CuffGeometry, dofs: int) -> np.ndarray:
+    """Block-diagonal R (n*dofs, n*dofs) turning cuff-frame patch dofs into local ones."""
+    frames = patch_frames(geometry)
+    n = geometry.n
+    R = np.zeros((n * dofs, n * dofs))
+    for e in range(n):
+        s = e * dofs
+        R[s:s + 3, s:s + 3] = frames[e]
+        if dofs == 6:
+            R[s + 3:s + 6, s + 3:s + 6] = frames[e]
+    return R
+
+
+def _unit(unit: str, source: str) -> dict:
+    return {"unit": unit, "source": source}
+
+
+@dataclass(frozen=True, eq=False)
+class CoupledModel:
+    """A cuff on a continuum tissue layer, ready to solve (docs/model.md section 10).
+
+    Attributes
+    ----------
+    geometry : CuffGeometry
+    arm : str
+        ``coupled``.
+    K_t : ndarray, shape (n*d, n*d)
+        Condensed tissue stiffness on the patches' rigid motions, cuff-frame axes,
+        rotations about each patch centre [N/m, N/rad; N*m/m, N*m/rad].
+    dofs : int
+        d, 3 (translations) or 6 (and rotations) per patch.
+    k_cuff : ndarray, shape (n,)
+        Cuff stiffness k_c,e [N/m] (inf: a rigid cuff).
+    shear_ratio : float
+        eta, tangential over normal cuff stiffness [-].
+    delta : ndarray, shape (n*d,)
+        Preload offset of the tied dofs, local axes [m, rad].
+    f0 : ndarray, shape (n,)
+        Normal patch forces at zero wrench (hoop preload) [N].
+    W_pre : ndarray, shape (6,)
+        Constant wrench of the strap on the cuff [N, N*m].
+    T : ndarray, shape (n*d, 6)
+        Cuff displacement -> patch motions, local axes [-, m].
+    C : ndarray, shape (n*d, n*d)
+        Total compliance C_t + C_c, local axes [m/N, ...].
+    C_t : ndarray, shape (n*d, n*d)
+        Tissue compliance K_t^-1, local axes.
+    """
+
+    geometry: CuffGeometry
+    arm: str
+    K_t: np.ndarray = field(metadata=_unit("[[N/m, N/rad], [N*m/m, N*m/rad]]",
+                                           "docs/model.md section 10"))
+    dofs: int
+    k_cuff: np.ndarray = field(metadata=_unit("N/m", "docs/model.md section 2"))
+    shear_ratio: float = field(metadata=_unit("-", "docs/model.md section 2"))
+    delta: np.ndarray = field(metadata=_unit("[m, rad]", "docs/model.md section 10"))
+    f0: np.ndarray = field(metadata=_unit("N", "docs/model.md section 3"))
+    W_pre: np.ndarray = field(metadata=_unit("[N, N, N, N*m, N*m, N*m]", "docs/model.md section 3"))
+    T: np.ndarray = field(repr=False, metadata=_unit("[-, m]", "docs/model.md section 10"))
+    C: np.ndarray = field(repr=False, metadata=_unit("[m/N, rad/N; m/(N*m), rad/(N*m)]",
+                                                     "docs/model.md section 10"))
+    C_t: np.ndarray = field(repr=False, metadata=_unit("[m/N, rad/N; m/(N*m), rad/(N*m)]",
+                                                       "docs/model.md section 10"))
+    strap_model: str = "hoop"
+    pain_threshold_kpa: float = field(default=120.0, metadata=_unit("kPa", "docs/model.md section 4"))
+    inv_area_kpa: np.ndarray = field(init=False, repr=False, metadata=_unit("1/(1000 N)", "derived"))
+    normal_dofs: np.ndarray = field(init=False, repr=False, metadata=_unit("-", "derived"))
+
+    def __post_init__(self):
+        object.__setattr__(self, "inv_area_kpa", 1.0 / (1000.0 * self.geometry.areas))
+        object.__setattr__(self, "normal_dofs", np.arange(self.geometry.n) * self.dofs)
+
+    @property
+    def n(self) -> int:
+        return self.geometry.n
+
+    @property
+    def labels(self) -> tuple:
+        return self.geometry.labels
+
+    @property
+    def areas(self) -> np.ndarray:
+        return self.geometry.areas
+
+    @property
+    def b(self) -> np.ndarray:
+        return self.geometry.b
+
+    def contact_system(self, cache: FactorCache | None = None) -> "CoupledSystem":
+        """The active-set kernel's system for this model (docs/model.md section 9)."""
+        return CoupledSystem(self, cache)
+
+    def tangent_stiffness(self, u, contact=None) -> np.ndarray:
+        """H_S (6, 6) of the contact set ``contact`` (n,) bool, or of full contact if None."""
+        S = np.ones(self.n, dtype=bool) if contact is None else np.asarray(contact, dtype=bool)
+        system = self.contact_system(FactorCache(0))
+        Mt, _ = system.factors(set_keys(S[None])[0], S)[:2]
+        H = np.linalg.inv(Mt.T)
+        return 0.5 * (H + H.T)
+
+    def patch_forces(self, u, contact) -> np.ndarray:
+        """Patch forces P (m, n, d) in local axes [N, N*m]: normal, axial, circumferential, ...
+
+        u (m, 6) solutions and ``contact`` (m, n) their contact sets.
+        """
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        S = np.atleast_2d(np.asarray(contact, dtype=bool))
+        system = self.contact_system(FactorCache(64))
+        out = np.zeros((len(u), self.n * self.dofs))
+        keys = set_keys(S)
+        for key, idx in _groups(keys):
+            data = system.factors(key, S[idx[0]])
+            D, GT, Gd = data[4], data[5], data[6]
+            out[np.ix_(idx, D)] = u[idx] @ GT.T + Gd
+        return out.reshape(len(u), self.n, self.dofs)
+
+
+def _groups(keys: np.ndarray):
+    """(key, row indices) for every distinct key, in order of first appearance."""
+    if len(keys) and np.all(keys == keys[0]):
+        yield keys[0], np.arange(len(keys))
+        return
+    uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+    order = np.argsort(inv, kind="stable")
+    bounds = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=len(uniq)))])
+    for j in np.argsort(first):
+        yield uniq[j], order[bounds[j]:bounds[j + 1]]
+
+
+class CoupledSystem(ContactSystem):
+    """The coupled model as a :class:`~phri_spring.physics.active_set.ContactSystem`.
+
+    Per contact set S it caches (Mt, c, Qt, q0, D, G T_D, G delta_D, |Qt|, |q0|):
+    u = (r + c) @ Mt, the indicator q = u @ Qt + q0 (normal force of the
+    patches in S, penetration of the others), the tied dofs D and the maps from
+    u to their forces.
+    """
+
+    sets_follow_indicator = False
+
+    def __init__(self, model: CoupledModel, cache: FactorCache | None = None):
+        self.model = model
+        self.n = model.n
+        self.cache = FactorCache() if cache is None else cache
+        self._reduced = None
+
+    def factors(self, key, S_row: np.ndarray):
+        hk = key.item() if isinstance(key, np.generic) else key
+        hit = self.cache.get(hk)
+        if hit is None:
+            hit = self._set_data(np.asarray(S_row, dtype=bool))
+            self.cache.put(hk, hit)
+        return hit
+
+    def _set_data(self, S_row):
+        m = self.model
+        N = m.normal_dofs
+        tied = np.ones(m.n * m.dofs, dtype=bool)
+        tied[N[~S_row]] = False
+        D = np.flatnonzero(tied)
+        cf = cho_factor(m.C[np.ix_(D, D)])
+        TD = m.T[D]
+        GT = cho_solve(cf, TD)                          # C_DD^-1 T_D
+        Gd = cho_solve(cf, m.delta[D])                  # C_DD^-1 delta_D
+        H = TD.T @ GT
+        H = 0.5 * (H + H.T)
+        Mt = np.ascontiguousarray(np.linalg.inv(H).T)
+        c = -(TD.T @ Gd)
+        Q = np.empty((m.n, 6))
+        q0 = np.empty(m.n)
+        pos = np.searchsorted(D, N[S_row])             # where the pressing normals sit in D
+        Q[S_row], q0[S_row] = GT[pos], Gd[pos]
+        free = N[~S_row]
+        CtND = m.C_t[np.ix_(free, D)]
+        Q[~S_row] = m.T[free] - CtND @ GT
+        q0[~S_row] = m.delta[free] - CtND @ Gd
+        Qt = np.ascontiguousarray(Q.T)
+        return (Mt, c, Qt, q0, D, GT, Gd, np.abs(Qt), np.abs(q0))
+
+    def solve_sets(self, keys, S, r):
+        m = len(keys)
+        if m == 0:
+            return np.empty((0, 6))
+        if m == 1 or np.all(keys == keys[0]):
+            Mt, c = self.factors(keys[0], S[0])[:2]
+            return (r + c) @ Mt
+        out = np.empty((m, 6))
+        for key, idx in _groups(keys):
+            Mt, c = self.factors(key, S[idx[0]])[:2]
+            out[idx] = (r[idx] + c) @ Mt
+        return out
+
+    def indicator(self, u, S, keys=None, out=None):
+        m = len(u)
+        if keys is None:
+            keys = set_keys(S)
+        q = np.empty((m, self.n)) if out is None else out
+        if m == 1 or np.all(keys == keys[0]):
+            Qt, q0 = self.factors(keys[0], S[0])[2:4]
+            np.matmul(u, Qt, out=q)
+            q += q0
+            return q
+        for key, idx in _groups(keys):
+            Qt, q0 = self.factors(key, S[idx[0]])[2:4]
+            q[idx] = u[idx] @ Qt + q0
+        return q
+
+    def consistent(self, S, q, u):
+        keys = set_keys(S)
+        tol = np.empty(q.shape)
+        au = np.abs(np.atleast_2d(u))
+        for key, idx in _groups(keys):
+            aQt, aq0 = self.factors(key, S[idx[0]])[7:9]
+            tol[idx] = SET_RTOL * (au[idx] @ aQt + aq0)
+        wrong = (S & (q < -tol)) | (~S & (q > tol))
+        return ~wrong.any(axis=-1)
+
+    def forces(self, q, out=None):
+        """Normal patch forces [N]: the indicator's positive part (a force in S, <= 0 outside)."""
+        return np.maximum(q, 0.0, out=out)
+
+    # ------------------------------------------------------------------ safeguard
+    def _reduced_problem(self):
+        """The program reduced to the normal forces f: gradient M f + m0 + Mr r (= -penetration)."""
+        if self._reduced is None:
+            mdl = self.model
+            N = mdl.normal_dofs
+            Tn = np.setdiff1d(np.arange(mdl.n * mdl.dofs), N)
+            C, T, d = mdl.C, mdl.T, mdl.delta
+            cf = cho_factor(C[np.ix_(Tn, Tn)])
+            XT = cho_solve(cf, T[Tn])                               # C_TT^-1 T_T
+            Xd = cho_solve(cf, d[Tn])
+            XC = cho_solve(cf, C[np.ix_(Tn, N)])                    # C_TT^-1 C_TN
+            H = T[Tn].T @ XT
+            Hinv = np.linalg.inv(0.5 * (H + H.T))
+            # u = Hinv (r - T_T^T Xd + (T_T^T XC - T_N^T) f)
+            Au = Hinv @ (T[Tn].T @ XC - T[N].T)                     # (6, n)
+            bu_r, bu_0 = Hinv, -Hinv @ (T[Tn].T @ Xd)
+            # P_T = Xd + XT u - XC f
+            # gradient g(f) = (C P - delta - T u)_N = C_NN f + C_NT P_T - d_N - T_N u
+            CNT = C[np.ix_(N, Tn)]
+            M = C[np.ix_(N, N)] - CNT @ XC + (CNT @ XT - T[N]) @ Au
+            Mr = (CNT @ XT - T[N]) @ bu_r
+            m0 = CNT @ Xd - d[N] + (CNT @ XT - T[N]) @ bu_0
+            M = 0.5 * (M + M.T)
+            L = np.linalg.cholesky(M)
+            self._reduced = (L, m0, Mr)
+        return self._reduced
+
+    def safeguard(self, r, u, budget):
+        """Solve one sample's reduced program by non-negative least squares, then polish.
+
+        The reduced program min_{f >= 0} 1/2 f^T M f + m^T f is solved as
+        min ||L^T f + L^-1 m|| (M = L L^T) by scipy's Lawson-Hanson NNLS (finite
+        termination); its support is the contact set, solved exactly once more.
+        """
+        if budget < 1:
+            return u, None, 0, False
+        L, m0, Mr = self._reduced_problem()
+        m = m0 + Mr @ r
+        rhs = -solve_triangular(L, m, lower=True)
+        f, _ = nnls(L.T, rhs, maxiter=50 * self.n)
+        S = f > 0
+        key = set_keys(S[None])
+        u_new = self.solve_sets(key, S[None], r[None])[0]
+        q = self.indicator(u_new[None], S[None], key)
+        ok = bool(self.consistent(S[None], q, u_new[None])[0])
+        return u_new, S, 1, ok
+
+
+def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ratio: float = 0.45,
+                        shear_ratio: float | None = None, strap_tension: float = 15.0,
+                        strap_model: str = "hoop", handle_angles_deg=None,
+                        handle_axial_position: float | None = None,
+                        pain_threshold_kpa: float = 120.0) -> CoupledModel:
+    """Assemble the coupled model of docs/model.md section 10.
+
+    Parameters
+    ----------
+    geometry : CuffGeometry
+    K_surface : array_like, shape (3n, 3n) or (6n, 6n)
+        Condensed tissue stiffness on the patches (patch-major, per patch
+        t_x, t_y, t_z [, w_x, w_y, w_z] in the cuff frame's axes, rotations about
+        the patch centre) [N/m, N/rad; N*m/m, N*m/rad]; symmetric positive definite.
+    k_cuff : array_like, shape (n,)
+        Cuff stiffness k_c,e [N/m]; inf for a rigid cuff.
+    poisson_ratio, shear_ratio : float
+        eta = k_s / k for the cuff's tangential springs; default 1 / (2 (1 + nu)).
+    strap_tension, strap_model, handle_angles_deg, handle_axial_position
+        As :func:`phri_spring.physics.model.build_model`. With the hoop strap the
+        patches carry, at zero wrench, the normal forces f0 of the spring model.
+    pain_threshold_kpa : float
+
+    Raises
+    ------
+    ValueError
+        For a K_surface of the wrong shape, not symmetric positive definite or
+        not finite, a cuff stiffness that is not positive, or a geometry whose
+        tangential ties cannot hold the cuff.
+    """
+    n = geometry.n
+    K = np.asarray(K_surface, dtype=float)
+    if K.ndim != 2 or K.shape[0] != K.shape[1] or K.shape[0] not in (3 * n, 6 * n):
+        raise ValueError(f"surface stiffness: expected shape ({3 * n}, {3 * n}) or "
+                         f"({6 * n}, {6 * n}) for {n} patches, got {K.shape}")
+    if not np.isfinite(K).all():
+        raise ValueError("surface stiffness: expected finite numbers")
+    scale = np.abs(K).max()
+    if not np.allclose(K, K.T, rtol=0, atol=1e-8 * scale):
+        raise ValueError("surface stiffness: expected a symmetric matrix")
+    K = 0.5 * (K + K.T)
+    try:
+        cK = cho_factor(K)
+    except np.linalg.LinAlgError:
+        raise ValueError("surface stiffness: expected a positive definite matrix") from None
+    dofs = K.shape[0] // n
+    k_c = np.broadcast_to(np.asarray(k_cuff, dtype=float), (n,)).copy()
+    if not np.all(k_c > 0):
+        raise ValueError("cuff stiffness: expected > 0 (inf for a rigid cuff)")
+    eta = shear_ratio_from_poisson(poisson_ratio) if shear_ratio is None else float(shear_ratio)
+    if not eta > 0:
+        raise ValueError(f"shear_ratio: expected > 0, got {eta}")
+
+    R = _local_rotation(geometry, dofs)
+    C_t_global = cho_solve(cK, np.eye(K.shape[0]))
+    C_t = R @ C_t_global @ R.T
+    C_t = 0.5 * (C_t + C_t.T)
+    cc = np.zeros((n, dofs))
+    with np.errstate(divide="ignore"):
+        cc[:, 0] = 1.0 / k_c
+        cc[:, 1] = cc[:, 2] = 1.0 / (eta * k_c)
+    C = C_t + np.diag(cc.ravel())
+    T = R @ rigid_patch_map(geometry, dofs)
+
+    if strap_model == "hoop":
+        row_w = geometry.row_width[:: geometry.n_angles]
+        f0 = hoop_preload(strap_tension, geometry.span, geometry.row_width, row_w)
+        P0 = np.zeros(n * dofs)
+        P0[np.arange(n) * dofs] = f0
+        delta = C @ P0
+        W_pre = T.T @ P0
+    elif strap_model == "handles":
+        f0 = np.zeros(n)
+        delta = np.zeros(n * dofs)
+        if handle_angles_deg is None:
+            th = np.degrees(geometry.theta[: geometry.n_angles])
+            half = np.degrees(geometry.span[0]) / 2.0
+            handle_angles_deg = (th[0] - half, th[-1] + half)
+        ax = float(np.mean(geometry.x[:: geometry.n_angles])) if handle_axial_position is None \
+            else float(handle_axial_position)
+        radius = float(np.mean(geometry.radius[:: geometry.n_angles]))
+        ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
+        W_pre = handles_preload(strap_tension, ta, tb, ax, radius)
+    else:
+        raise ValueError(f"strap model: expected 'hoop' or 'handles', got {strap_model!r}")
+
+    model = CoupledModel(geometry=geometry, arm="coupled", K_t=K, dofs=dofs, k_cuff=k_c,
+                         shear_ratio=eta, delta=delta, f0=f0, W_pre=W_pre, T=T, C=C, C_t=C_t,
+                         strap_model=strap_model, pain_threshold_kpa=float(pain_threshold_kpa))
+    # every patch lifted off: the tangential ties alone must hold the cuff
+    try:
+        model.contact_system(FactorCache(0))._reduced_problem()
+    except np.linalg.LinAlgError:
+        raise ValueError("the tangential ties cannot hold the cuff in every direction for this "
+                         "geometry (e.g. a single angular location)") from None
+    return model
