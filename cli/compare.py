@@ -13,7 +13,8 @@ from ._common import info
 @click.option("-o", "--output", required=True, metavar="OUTDIR",
               help="Folder to write (created; must not be or contain an input).")
 @click.option("--arms", default="rigid,compliant", show_default=True, metavar="LIST",
-              help="Arm models to compare, comma-separated: rigid, compliant.")
+              help="Arm models to compare, comma-separated: rigid, compliant, coupled "
+                   "(coupled needs tissue.continuum in the config).")
 @click.option("--tissue-stiffness", metavar="CSV", default=None,
               help="Tissue stiffness map [N/m, indenter basis] written by 'phri fit-stiffness', "
                    "replacing the config's tissue.stiffness.")

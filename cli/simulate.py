@@ -12,10 +12,14 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.argument("log", metavar="LOG")
 @click.option("-o", "--output", required=True, metavar="OUT",
               help="Forces file to write: .csv or .parquet (chosen by the extension).")
-@click.option("--arm", type=click.Choice(["compliant", "rigid"]), default="compliant",
+@click.option("--arm", type=click.Choice(["compliant", "rigid", "coupled"]), default="compliant",
               show_default=True,
               help="compliant: tissue and cuff springs in series; rigid: the rigid-arm "
-                   "assumption (cuff springs only).")
+                   "assumption (cuff springs only); coupled: the tissue as a continuum layer "
+                   "on the bone (needs tissue.continuum in the config; docs/model.md section 10).")
+@click.option("--shear", is_flag=True,
+              help="Also write the tangential (shear) force on the arm of every element [N]: "
+                   "columns A0_shear_axial_N, A0_shear_circumferential_N, ...")
 @click.option("--baseline", default="none", show_default=True, metavar="SPEC",
               help="none (absolute forces, preload included) | zero (subtract the forces at "
                    "zero wrench) | first:SECONDS | window:T0:T1 (subtract the forces at the "
@@ -31,7 +35,8 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.option("--progress/--no-progress", default=None,
               help="Progress on stderr (default: only when stderr is a terminal).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
-def simulate(config, log, output, arm, baseline, columns, decimals, chunk_rows, progress, quiet):
+def simulate(config, log, output, arm, shear, baseline, columns, decimals, chunk_rows, progress,
+             quiet):
     """Predict the normal force [N] on every cuff element for each sample of LOG.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
@@ -57,6 +62,7 @@ def simulate(config, log, output, arm, baseline, columns, decimals, chunk_rows, 
     bar = StderrProgress("simulate", progress_enabled(progress))
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
+                                shear=shear,
                                 chunk_rows=chunk_rows, decimals=decimals,
                                 progress=bar if bar.enabled else None)
     finally:

@@ -133,11 +133,27 @@ def _not_a_bool(v):
     return v
 
 
+def _unit(unit: str) -> dict:
+    return {"unit": unit}
+
+
+class _Continuum(_Strict):
+    """What ``--arm coupled`` needs (docs/model.md section 10)."""
+
+    thickness: float = Field(gt=0, allow_inf_nan=False, json_schema_extra=_unit("m"))
+    young_modulus: Optional[float] = Field(default=None, gt=0, allow_inf_nan=False,
+                                           json_schema_extra=_unit("Pa"))
+    surface_stiffness: Optional[str] = None
+    spread: Literal["mean", "per_patch"] = "mean"
+
+
 class _Tissue(_Strict):
     stiffness: _StiffnessValue
     basis: Literal["indenter", "element"] = "indenter"
-    indenter_diameter: float = Field(default=0.009, gt=0, allow_inf_nan=False)
-    poisson_ratio: float = Field(default=0.45, gt=-1.0, le=0.5)
+    indenter_diameter: float = Field(default=0.009, gt=0, allow_inf_nan=False,
+                                     json_schema_extra=_unit("m"))
+    poisson_ratio: float = Field(default=0.45, gt=-1.0, le=0.5, json_schema_extra=_unit("-"))
+    continuum: Optional[_Continuum] = None
 
     _stiffness_not_bool = field_validator("stiffness", mode="before")(_not_a_bool)
 
@@ -252,6 +268,10 @@ class Config:
     handle_angles_deg: Optional[tuple] = None
     strap_axial_position: Optional[float] = None
     max_iterations: int = 100
+    continuum_thickness: Optional[float] = None        # [m] tissue.continuum.thickness
+    continuum_young_modulus: Optional[float] = None    # [Pa] tissue.continuum.young_modulus
+    continuum_surface_stiffness: Optional[Path] = None  # a user's FE export (.npz)
+    continuum_spread: str = "mean"                     # mean | per_patch
     raw: dict = field(default_factory=dict, repr=False)
     #: stiffness CSV files the config reads (inputs: never to be written over)
     stiffness_files: tuple = ()
@@ -487,6 +507,12 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         raise ConfigError(f"expected a finite axial position [m], got {st.axial_position!r}",
                           file=path, key="strap.axial_position")
 
+    cont = root.tissue.continuum
+    surface = None
+    if cont is not None and cont.surface_stiffness is not None:
+        surface = Path(cont.surface_stiffness)
+        surface = surface if surface.is_absolute() else base / surface
+
     return Config(
         path=Path(path) if path else None, name=root.name, row_labels=row_labels, row_x=row_x,
         radius=radius, row_width=row_width, angle_start_deg=float(g.angles.start),
@@ -502,7 +528,12 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         strap_model=st.model,
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
         strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
-        raw=data, stiffness_files=stiffness_files,
+        raw=data, stiffness_files=stiffness_files + ((surface,) if surface else ()),
+        continuum_thickness=None if cont is None else float(cont.thickness),
+        continuum_young_modulus=None if cont is None or cont.young_modulus is None
+        else float(cont.young_modulus),
+        continuum_surface_stiffness=surface,
+        continuum_spread="mean" if cont is None else cont.spread,
     )
 
 

@@ -196,6 +196,14 @@ class CoupledModel:
         return out.reshape(len(u), self.n, self.dofs)
 
 
+def _coupled_shear(self, u, contact) -> np.ndarray:
+    """Tangential patch forces on the arm, (m, n, 2) [N]: axial, circumferential."""
+    return self.patch_forces(u, contact)[..., 1:3]
+
+
+CoupledModel.shear_components = _coupled_shear
+
+
 def _groups(keys: np.ndarray):
     """(key, row indices) for every distinct key, in order of first appearance."""
     if len(keys) and np.all(keys == keys[0]):

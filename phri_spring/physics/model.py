@@ -125,6 +125,24 @@ class SpringModel:
         return self.K_s + (self.b.T * kS) @ self.b
 
 
+def _shear_components(model: SpringModel, u, contact=None) -> np.ndarray:
+    """Tangential force on the arm at every element, (m, n, 2) [N]: axial, circumferential.
+
+    s_e = k_s,e (I3 - n_e n_e^T) (t + w x p_e) (docs/model.md section 2, bonded shear),
+    projected on the axis a = +x and on c_e = n_e x a (increasing angle).
+    """
+    u = np.atleast_2d(np.asarray(u, dtype=float))
+    g = model.geometry
+    d = u[:, None, :3] + np.cross(u[:, None, 3:], g.points)
+    dn = np.sum(d * g.normals, axis=-1, keepdims=True)
+    s = model.k_shear[:, None] * (d - dn * g.normals)
+    circ = np.cross(g.normals, np.array([1.0, 0.0, 0.0]))
+    return np.stack([s[..., 0], np.sum(s * circ, axis=-1)], axis=-1)
+
+
+SpringModel.shear_components = _shear_components
+
+
 def field_table(model_class=SpringModel) -> list:
     """``(name, unit, source)`` of every field of a model class that declares a unit.
 

@@ -12,7 +12,8 @@ from ..physics.model import SpringModel, build_model, tissue_element_stiffness
 
 __all__ = ["geometry_from_config", "model_from_config", "cuff_wrench", "ARMS"]
 
-ARMS = ("compliant", "rigid")
+#: arm models: the paper's two spring models and the coupled tissue model (docs/model.md)
+ARMS = ("compliant", "rigid", "coupled")
 
 
 def geometry_from_config(cfg: Config) -> CuffGeometry:
@@ -22,17 +23,36 @@ def geometry_from_config(cfg: Config) -> CuffGeometry:
                          row_labels=cfg.row_labels)
 
 
-def model_from_config(cfg: Config, arm: str = "compliant") -> SpringModel:
-    """Assemble the spring network of a config for the ``compliant`` or ``rigid`` arm.
+def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
+    """Assemble the model of a config for an arm of :data:`ARMS`.
+
+    Parameters
+    ----------
+    cfg : Config
+    arm : {'compliant', 'rigid', 'coupled'}
+        The paper's spring network with tissue and cuff springs in series
+        (``compliant``) or cuff springs only (``rigid``), or the coupled tissue
+        model (``coupled``: needs ``tissue.continuum``; docs/model.md section 10).
+    cache_dir : path, optional
+        ``coupled`` only: where the built-in FE's surface stiffness is cached.
+
+    Returns
+    -------
+    SpringModel or CoupledModel
 
     Raises
     ------
     ConfigError
         If an element would be infinitely stiff (e.g. ``cuff.stiffness: .inf``
-        with the rigid arm) or the geometry cannot hold the cuff (singular K_s).
+        with the rigid arm), the geometry cannot hold the cuff (singular K_s), or
+        the coupled model's inputs are missing or out of range.
+    UsageError
+        ``coupled`` without the ``fe`` extra (and no ``surface_stiffness`` file).
     """
     if arm not in ARMS:
         raise ValueError(f"arm: expected one of {ARMS}, got {arm!r}")
+    if arm == "coupled":
+        return _coupled_model(cfg, cache_dir)
     geom = geometry_from_config(cfg)
     k_t = tissue_element_stiffness(cfg.tissue_stiffness, geom.areas, cfg.tissue_basis,
                                    cfg.indenter_diameter)
@@ -51,6 +71,96 @@ def model_from_config(cfg: Config, arm: str = "compliant") -> SpringModel:
     except ValueError as exc:
         key = "geometry.angles" if "K_s" in str(exc) else None
         raise ConfigError(str(exc), file=cfg.path, key=key) from None
+
+
+def continuum_modulus(cfg: Config, geom: CuffGeometry | None = None) -> np.ndarray:
+    """Young's modulus E [Pa] per patch (n,) for the coupled model.
+
+    ``tissue.continuum.young_modulus`` if given; otherwise converted from the
+    indenter stiffness in ``tissue.stiffness`` (flat punch of
+    ``tissue.indenter_diameter`` on a layer of the continuum's thickness bonded
+    to the bone, by the same FE: docs/model.md section 10).
+    """
+    key = "tissue.continuum"
+    n = len(cfg.labels)
+    if cfg.continuum_young_modulus is not None:
+        return np.full(n, cfg.continuum_young_modulus)
+    if cfg.tissue_basis != "indenter":
+        raise ConfigError("give tissue.continuum.young_modulus [Pa]: tissue.stiffness is not "
+                          "indenter stiffness (tissue.basis: element), so E cannot be derived "
+                          "from it", file=cfg.path, key=f"{key}.young_modulus")
+    fe = _fe_module(cfg)
+    return np.asarray(fe.modulus_from_indenter(cfg.tissue_stiffness, cfg.continuum_thickness,
+                                               cfg.poisson_ratio,
+                                               radius=cfg.indenter_diameter / 2.0), dtype=float)
+
+
+def _fe_module(cfg: Config):
+    from ..errors import UsageError
+
+    try:
+        from ..physics import fe_tissue
+        fe_tissue.require_skfem()
+    except ImportError:
+        raise UsageError("the coupled model's built-in FE needs scikit-fem: pip install -e .[fe] "
+                         "(or give tissue.continuum.surface_stiffness, your own FE export)",
+                         key="--arm coupled") from None
+    return fe_tissue
+
+
+def _coupled_model(cfg: Config, cache_dir=None):
+    """The coupled tissue model of a config (docs/model.md section 10)."""
+    from ..io.surface_stiffness import load_or_build, load_surface_stiffness
+    from ..physics.coupled import build_coupled_model
+
+    key = "tissue.continuum"
+    if cfg.continuum_thickness is None:
+        raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
+                          "young_modulus [Pa] unless tissue.stiffness holds indenter values)",
+                          file=cfg.path, key=key)
+    geom = geometry_from_config(cfg)
+    radius = np.unique(geom.radius)
+    if len(radius) != 1:
+        raise ConfigError("the coupled model needs one cuff radius for every row (a cylindrical "
+                          f"arm), got {sorted(radius.tolist())} m", file=cfg.path,
+                          key="geometry.radius")
+    t = cfg.continuum_thickness
+    if not t < radius[0]:
+        raise ConfigError(f"expected 0 < thickness < the radius {radius[0]:g} m (the bone's radius "
+                          f"is radius - thickness), got {t:g} m", file=cfg.path,
+                          key=f"{key}.thickness")
+    if not cfg.poisson_ratio < 0.5:
+        raise ConfigError(f"the coupled model needs a Poisson ratio below 0.5 (a compressible "
+                          f"continuum), got {cfg.poisson_ratio:g}", file=cfg.path,
+                          key="tissue.poisson_ratio")
+    if cfg.continuum_surface_stiffness is not None:
+        K = load_surface_stiffness(cfg.continuum_surface_stiffness, geom)
+        E = None
+    else:
+        E = continuum_modulus(cfg, geom)
+        _fe_module(cfg)
+        K, _ = load_or_build(geom, t, float(np.mean(E)), cfg.poisson_ratio, cache_dir=cache_dir)
+    if cfg.continuum_spread == "per_patch":
+        if E is None:
+            E = continuum_modulus(cfg, geom)
+        K = _scale_per_patch(K, E / np.mean(E), geom.n)
+    try:
+        return build_coupled_model(geom, K, cfg.cuff_stiffness, poisson_ratio=cfg.poisson_ratio,
+                                   shear_ratio=cfg.shear_ratio, strap_tension=cfg.strap_tension,
+                                   strap_model=cfg.strap_model,
+                                   handle_angles_deg=cfg.handle_angles_deg,
+                                   handle_axial_position=cfg.strap_axial_position,
+                                   pain_threshold_kpa=cfg.pain_threshold_kpa)
+    except ValueError as exc:
+        raise ConfigError(str(exc), file=cfg.continuum_surface_stiffness or cfg.path,
+                          key=key) from None
+
+
+def _scale_per_patch(K: np.ndarray, s: np.ndarray, n: int) -> np.ndarray:
+    """D K D with D = diag(sqrt(s_e)) on patch e's dofs: patch e's stiffness scaled by s_e,
+    the coupling of patches e and f by sqrt(s_e s_f) (symmetric positive definite kept)."""
+    d = np.repeat(np.sqrt(np.asarray(s, dtype=float)), K.shape[0] // n)
+    return K * d[:, None] * d[None, :]
 
 
 def cuff_wrench(cfg: Config, wrench_lc) -> np.ndarray:

@@ -69,11 +69,11 @@ def parse_arms(arms: Union[str, Sequence[str], None]) -> tuple:
         [str(a).strip() for a in arms]
     items = [a for a in items if a]
     if not items:
-        raise UsageError("expected at least one of rigid, compliant", key="--arms")
+        raise UsageError(f"expected at least one of {', '.join(ARMS)}", key="--arms")
     for a in items:
         if a not in ARMS:
-            raise UsageError(f"unknown arm model {a!r}; expected rigid, compliant or both "
-                             "(comma-separated)", key="--arms")
+            raise UsageError(f"unknown arm model {a!r}; expected a comma-separated list of "
+                             f"{', '.join(ARMS)}", key="--arms")
     if len(set(items)) != len(items):
         raise UsageError(f"arm models repeated in {','.join(items)}; expected each once",
                          key="--arms")

@@ -27,6 +27,7 @@ from .common import cuff_wrench, model_from_config
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
+           "shear_columns",
            "per_sample_extras"]
 
 #: extra per-sample columns of the forces table, after the element labels, with their types
@@ -171,7 +172,7 @@ def _as_config(config) -> Config:
 
 def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
              baseline: Union[str, Baseline, None] = "none",
-             model: Optional[SpringModel] = None) -> SimulationResult:
+             model=None, shear: bool = False) -> SimulationResult:
     """Contact forces for every sample of a wrench log held in memory.
 
     Parameters
@@ -183,11 +184,15 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
         (``load_cell.force_unit``, ``load_cell.moment_unit``).
     time : array_like, shape (m,), optional
         Sample times [s] (needed for ``first:`` and ``window:`` baselines).
-    arm : {'compliant', 'rigid'}
+    arm : {'compliant', 'rigid', 'coupled'}
+        See :func:`~phri_spring.workflows.common.model_from_config`.
     baseline : str or Baseline
         ``none`` (absolute forces, preload included), ``zero``, ``first:S`` or ``window:T0:T1``.
-    model : SpringModel, optional
+    model : SpringModel or CoupledModel, optional
         A prebuilt model of this config and arm (saves rebuilding it).
+    shear : bool
+        Add the tangential (shear) force on the arm of every element to ``extras``:
+        ``{label}_shear_axial_N`` and ``{label}_shear_circumferential_N`` [N].
 
     Returns
     -------
@@ -226,7 +231,8 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                             f"(the log spans {t.min():g} to {t.max():g} s)", key="--baseline")
         mean_lc = w[mask].mean(axis=0)
     f_base = _baseline_forces(model, cfg, base, mean_lc, cfg.max_iterations)
-    ch = _solve_chunk(model, cuff_wrench(cfg, w), f_base, cfg.max_iterations, FactorCache())
+    ch = _solve_chunk(model, cuff_wrench(cfg, w), f_base, cfg.max_iterations, FactorCache(),
+                      shear)
     extras, idx = ch.extras()
     sol = ch.solution
     return SimulationResult(time=t, labels=tuple(model.labels), forces=ch.forces,
@@ -237,29 +243,49 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                             pain_ratio=extras["peak_pressure_to_pain_threshold"], extras=extras)
 
 
+def shear_columns(labels) -> tuple:
+    """Names of the opt-in shear columns (``--shear``): two per element [N]."""
+    return tuple(f"{lab}_shear_{part}_N" for lab in labels
+                 for part in ("axial", "circumferential"))
+
+
+def _shear_extras(model, sol) -> dict:
+    """Tangential force on the arm of every element [N] (axial, circumferential), NaN where
+    the sample did not converge."""
+    s = model.shear_components(sol.u, sol.contact)
+    if not sol.converged.all():
+        s[~sol.converged] = np.nan
+    s = s.reshape(len(s), -1)
+    return {name: s[:, j] for j, name in enumerate(shear_columns(model.labels))}
+
+
 class _Chunk:
     """One solved chunk: its solution, its (baseline-zeroed) forces and, on demand, its extras."""
 
-    __slots__ = ("model", "solution", "forces", "_extras")
+    __slots__ = ("model", "solution", "forces", "shear", "_extras")
 
-    def __init__(self, model, solution, forces):
-        self.model, self.solution, self.forces = model, solution, forces
+    def __init__(self, model, solution, forces, shear: bool):
+        self.model, self.solution, self.forces, self.shear = model, solution, forces, shear
         self._extras = None
 
     def extras(self):
-        """``(extras, peak_index)`` of :func:`per_sample_extras`, computed once."""
+        """``(extras, peak_index)`` of :func:`per_sample_extras` (and the shear columns)."""
         if self._extras is None:
             sol = self.solution
-            self._extras = per_sample_extras(self.model, sol.forces, sol.contact, sol.iterations,
-                                             sol.converged)
+            extras, idx = per_sample_extras(self.model, sol.forces, sol.contact, sol.iterations,
+                                            sol.converged)
+            if self.shear:
+                extras.update(_shear_extras(self.model, sol))
+            self._extras = extras, idx
         return self._extras
 
 
-def _solve_chunk(model, W, f_base, max_iterations: int, cache: FactorCache) -> _Chunk:
+def _solve_chunk(model, W, f_base, max_iterations: int, cache: FactorCache,
+                 shear: bool = False) -> _Chunk:
     """Solve cuff wrenches W (m, 6) and zero the forces by the baseline f_base (n,) or None."""
     sol = solve(model, W, max_iterations=max_iterations, cache=cache)
     forces = sol.forces if f_base is None else sol.forces - f_base
-    return _Chunk(model, sol, forces)
+    return _Chunk(model, sol, forces, shear)
 
 
 @dataclass
@@ -303,7 +329,8 @@ def _window_mean(log, columns, base: Baseline, chunk_rows: int) -> np.ndarray:
 
 def simulate_file(config, log, output, *, arm: str = "compliant",
                   baseline: Union[str, Baseline, None] = "none", columns: Optional[dict] = None,
-                  chunk_rows: int = 65536, decimals: Optional[int] = 6,
+                  chunk_rows: int = 65536, decimals: Optional[int] = 6, shear: bool = False,
+                  cache_dir=None,
                   progress: Optional[Callable[[int, Optional[int]], None]] = None,
                   on_chunk: Optional[Callable[[np.ndarray, np.ndarray, np.ndarray], None]] = None
                   ) -> SimulateSummary:
@@ -317,7 +344,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     output : path
         Forces file; CSV or Parquet by its extension. Written to a temporary file
         beside it and renamed at the end: a failed run leaves nothing behind.
-    arm, baseline
+    arm, baseline, shear
         See :func:`simulate`.
     columns : dict, optional
         Map from spec names to the log's column names; merged over ``load_cell.columns``.
@@ -327,6 +354,8 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         CSV output only: decimals kept in forces and pressures (default 6, i.e.
         1 uN and 1 mPa); None or a negative value keeps every digit. Parquet
         always stores full double precision.
+    cache_dir : path, optional
+        ``coupled`` only: where the built-in FE's surface stiffness is cached.
     progress : callable(done, total), optional
         Called after each chunk; ``total`` may be None.
     on_chunk : callable(time, absolute_forces, peak_pressure_kpa), optional
@@ -341,7 +370,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     base = parse_baseline(baseline)
     colmap = dict(cfg.log_columns)
     colmap.update(columns or {})
-    model = model_from_config(cfg, arm)
+    model = model_from_config(cfg, arm, cache_dir=cache_dir)
 
     mean_lc = _window_mean(log, colmap, base, chunk_rows) if base.kind in ("first", "window") \
         else None
@@ -360,7 +389,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         chunks = prefetch(chunks)
     try:
         return _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total,
-                       on_chunk)
+                       on_chunk, shear)
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
@@ -405,7 +434,8 @@ class SummaryAccumulator:
                                baseline_forces=baseline_forces, labels=self.labels)
 
 
-def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total, on_chunk):
+def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total, on_chunk,
+            shear):
     acc = SummaryAccumulator(model.labels)
     cache = FactorCache()  # one run, one model: factorisations reused across chunks
 
@@ -418,10 +448,11 @@ def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, tot
         return compute
 
     with atomic_file(output) as tmp:
-        with ForcesWriter(tmp, out_fmt, model.labels, _extra_arrow_types(),
+        with ForcesWriter(tmp, out_fmt, model.labels,
+                          _extra_arrow_types(model.labels if shear else ()),
                           decimals=decimals) as writer:
             for number, (ch, W) in enumerate(chunks):
-                chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache)
+                chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
                 acc.add_solution(chunk.solution)
                 job = extras_job(number, ch.time, chunk)
                 if on_chunk is not None:  # the observer needs the extras now, in order
@@ -434,9 +465,11 @@ def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, tot
     return acc.summary(output, f_base)
 
 
-def _extra_arrow_types() -> dict:
+def _extra_arrow_types(shear_labels=()) -> dict:
     import pyarrow as pa
 
     types = {"int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
              "label": pa.dictionary(pa.int32(), pa.string())}
-    return {name: types[kind] for name, kind in EXTRA_COLUMN_TYPES}
+    out = {name: types[kind] for name, kind in EXTRA_COLUMN_TYPES}
+    out.update({name: pa.float64() for name in shear_columns(shear_labels)})
+    return out
