@@ -171,3 +171,57 @@ def test_not_yaml(tmp_path):
 def test_listed_in_phri_help():
     res = run("--help")
     assert res.exit_code == 0 and "stiffness" in res.output
+
+
+# --------------------------------------------------------------------------- docs/stiffness.md
+DOC = ROOT / "docs" / "stiffness.md"
+
+
+def _json_of(config, arm):
+    res = run("stiffness", config, "--arm", arm, "--json")
+    assert res.exit_code == 0, res.output
+    return json.loads(stdout_of(res))
+
+
+def test_docs_table_matches_the_command():
+    """Every number of the comparison table is what `phri stiffness` prints (to its rounding)."""
+    rows = [line for line in DOC.read_text().splitlines()
+            if re.match(r"^\| (harmony|human)_upper_arm\.yaml \| (compliant|rigid) \|", line)]
+    assert len(rows) == 4
+    deg = math.pi / 180
+    for line in rows:
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        d = _json_of(ROOT / "configs" / cells[0], cells[1])
+        Kc = np.array(d["K_cuff"])
+        expected = [d["principal"]["translational_N_per_mm"],
+                    d["principal"]["rotational_Nm_per_deg"],
+                    [d["torsion_about_arm_axis_Nm_per_deg"]],
+                    sorted([Kc[4, 4] * deg, Kc[5, 5] * deg])]
+        for cell, exp in zip(cells[2:], expected):
+            shown = [float(v) for v in cell.split(",")]
+            np.testing.assert_allclose(shown, exp, rtol=2e-3, err_msg=line)
+    assert "| human_upper_arm.yaml | coupled: (to be filled by the lead) |" in DOC.read_text()
+
+
+def test_docs_output_block_is_the_real_output(monkeypatch):
+    monkeypatch.chdir(ROOT)
+    text = DOC.read_text()
+    block = re.search(r"```\n(interface stiffness of Harmony.*?)```", text, flags=re.S).group(1)
+    res = run("stiffness", "configs/harmony_upper_arm.yaml")
+    assert res.exit_code == 0
+    assert stdout_of(res) == block
+
+
+def test_docs_python_example_runs(monkeypatch):
+    import os
+    import sys
+
+    monkeypatch.chdir(ROOT)
+    # the `phri` of this interpreter's environment first on PATH
+    monkeypatch.setenv("PATH", str(Path(sys.executable).parent) + os.pathsep
+                       + os.environ.get("PATH", ""))
+    blocks = re.findall(r"```python\n(.*?)```", DOC.read_text(), flags=re.S)
+    assert len(blocks) == 1
+    ns = {}
+    exec(compile(blocks[0], str(DOC), "exec"), ns)  # noqa: S102 - our own docs
+    assert ns["K"].shape == (6, 6)
