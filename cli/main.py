@@ -59,12 +59,14 @@ _COMMANDS = {
     "simulate": ("phri_cli.simulate", "simulate"),
     "fit-stiffness": ("phri_cli.fit_stiffness", "fit_stiffness"),
     "compare": ("phri_cli.compare", "compare"),
+    "stiffness": ("phri_cli.stiffness", "stiffness"),
 }
 
 _SHORT_HELP = {
     "simulate": "Wrench log -> contact force of every cuff element [N].",
     "fit-stiffness": "Indenter recordings -> tissue stiffness map [N/m].",
     "compare": "RMSE of rigid- and compliant-arm predictions against a sensorized cuff.",
+    "stiffness": "Interface stiffness of the cuff on the arm at the load cell [N/mm, N*m/deg].",
 }
 
 
