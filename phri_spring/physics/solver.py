@@ -290,6 +290,10 @@ class SpringSystem(ContactSystem):
         # budget spent without a consistent full step: not converged (reported, never hidden)
         return u, None, its, False
 
+    def predict_sets(self, u, S):
+        """Contact sets at displacements u: the compression's sign (the set does not matter)."""
+        return self.indicator(u) > 0
+
     def forces(self, q, out=None):
         """Normal forces [N] from the indicator (compression) q; in place if ``out is q``."""
         return forces_from_compression(self.model, q, out=out)
@@ -365,8 +369,9 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     m, n = len(W), system.n
     with np.errstate(over="ignore", invalid="ignore"):
         r = W + model.W_pre
-    finite_in = np.isfinite(r).all(axis=1)
-    if not finite_in.all():  # W + W_pre overflowed: solved as zero, reported as not converged
+    finite_in = None
+    if not np.isfinite(r).all():  # W + W_pre overflowed: solved as zero, reported as not converged
+        finite_in = np.isfinite(r).all(axis=1)
         r = np.where(finite_in[:, None], r, model.W_pre)
 
     u = np.empty((m, 6))
@@ -398,11 +403,12 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
             u[s:e], its[s:e], conv[s:e] = ub, itb, cb
             carry = qb[-1] > 0
             system.forces(qb, out=qb)
-            # a result that overflowed is not an answer
-            huge = np.flatnonzero(~(np.abs(ub).max(axis=1) <= _HUGE))
-            if huge.size:
-                conv[s + huge] &= np.isfinite(ub[huge]).all(axis=1) & np.isfinite(qb[huge]).all(axis=1)
-    if not finite_in.all():
+            # a result that overflowed is not an answer (one cheap test first: two reductions)
+            if not (ub.max() <= _HUGE and ub.min() >= -_HUGE):
+                huge = np.flatnonzero(~(np.abs(ub).max(axis=1) <= _HUGE))
+                conv[s + huge] &= (np.isfinite(ub[huge]).all(axis=1)
+                                   & np.isfinite(qb[huge]).all(axis=1))
+    if finite_in is not None:
         conv &= finite_in
 
     if not conv.all():
