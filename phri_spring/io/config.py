@@ -82,21 +82,26 @@ def load_yaml(path) -> Any:
 _StiffnessValue = Union[float, str, list, dict]
 
 
+def _unit(unit: str) -> dict:
+    """Field metadata: the unit of a config value (see :func:`config_units`)."""
+    return {"unit": unit}
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=False)
 
 
 class _Angles(_Strict):
-    start: float
-    step: float
-    count: int = Field(ge=1)
-    width: Optional[float] = Field(default=None, gt=0, le=360)
+    start: float = Field(json_schema_extra=_unit("deg"))
+    step: float = Field(json_schema_extra=_unit("deg"))
+    count: int = Field(ge=1, json_schema_extra=_unit("-"))
+    width: Optional[float] = Field(default=None, gt=0, le=360, json_schema_extra=_unit("deg"))
 
 
 class _Geometry(_Strict):
-    radius: Union[float, list[float]]
-    rows: dict[str, float]
-    row_width: Union[float, list[float]]
+    radius: Union[float, list[float]] = Field(json_schema_extra=_unit("m"))
+    rows: dict[str, float] = Field(json_schema_extra=_unit("m"))
+    row_width: Union[float, list[float]] = Field(json_schema_extra=_unit("m"))
     angles: _Angles
 
     @field_validator("rows")
@@ -111,10 +116,12 @@ class _Geometry(_Strict):
 
 
 class _LoadCell(_Strict):
-    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    position: tuple[float, float, float] = Field(default=(0.0, 0.0, 0.0),
+                                                 json_schema_extra=_unit("m"))
     rotation: Optional[tuple[tuple[float, float, float], tuple[float, float, float],
                              tuple[float, float, float]]] = None
-    euler_xyz_deg: Optional[tuple[float, float, float]] = None
+    euler_xyz_deg: Optional[tuple[float, float, float]] = Field(default=None,
+                                                                json_schema_extra=_unit("deg"))
     convention: Literal["robot_on_cuff", "cuff_on_robot"] = "robot_on_cuff"
     force_unit: Literal["N", "lbf"] = "N"
     moment_unit: Literal["N*m", "N*mm"] = "N*m"
@@ -133,10 +140,6 @@ def _not_a_bool(v):
     return v
 
 
-def _unit(unit: str) -> dict:
-    return {"unit": unit}
-
-
 class _Continuum(_Strict):
     """What ``--arm coupled`` needs (docs/model.md section 10)."""
 
@@ -148,7 +151,7 @@ class _Continuum(_Strict):
 
 
 class _Tissue(_Strict):
-    stiffness: _StiffnessValue
+    stiffness: _StiffnessValue = Field(json_schema_extra=_unit("N/m"))
     basis: Literal["indenter", "element"] = "indenter"
     indenter_diameter: float = Field(default=0.009, gt=0, allow_inf_nan=False,
                                      json_schema_extra=_unit("m"))
@@ -159,25 +162,28 @@ class _Tissue(_Strict):
 
 
 class _Cuff(_Strict):
-    stiffness: _StiffnessValue
+    stiffness: _StiffnessValue = Field(json_schema_extra=_unit("N/m"))
 
     _stiffness_not_bool = field_validator("stiffness", mode="before")(_not_a_bool)
 
 
 class _Interface(_Strict):
-    pain_threshold_kpa: float = Field(default=120.0, gt=0, allow_inf_nan=False)
-    shear_ratio: Optional[float] = Field(default=None, gt=0, allow_inf_nan=False)
+    pain_threshold_kpa: float = Field(default=120.0, gt=0, allow_inf_nan=False,
+                                      json_schema_extra=_unit("kPa"))
+    shear_ratio: Optional[float] = Field(default=None, gt=0, allow_inf_nan=False,
+                                         json_schema_extra=_unit("-"))
 
 
 class _Strap(_Strict):
-    tension: float = Field(default=15.0, ge=0)
+    tension: float = Field(default=15.0, ge=0, json_schema_extra=_unit("N"))
     model: Literal["hoop", "handles"] = "hoop"
-    handle_angles: Optional[tuple[float, float]] = None
-    axial_position: Optional[float] = None
+    handle_angles: Optional[tuple[float, float]] = Field(default=None,
+                                                         json_schema_extra=_unit("deg"))
+    axial_position: Optional[float] = Field(default=None, json_schema_extra=_unit("m"))
 
 
 class _Solver(_Strict):
-    max_iterations: int = Field(default=100, ge=1, le=100000)
+    max_iterations: int = Field(default=100, ge=1, le=100000, json_schema_extra=_unit("-"))
 
 
 class _Root(_Strict):
@@ -191,6 +197,26 @@ class _Root(_Strict):
     solver: _Solver = Field(default_factory=_Solver)
 
 
+def config_units() -> dict:
+    """The unit of every config key that has one, by dotted key path.
+
+    >>> config_units()["tissue.continuum.young_modulus"], config_units()["strap.tension"]
+    ('Pa', 'N')
+    """
+    out = {}
+
+    def walk(cls, prefix):
+        for name, f in cls.model_fields.items():
+            extra = f.json_schema_extra or {}
+            if isinstance(extra, dict) and "unit" in extra:
+                out[prefix + name] = extra["unit"]
+            for ann in (f.annotation, *getattr(f.annotation, "__args__", ())):
+                if isinstance(ann, type) and issubclass(ann, BaseModel):
+                    walk(ann, prefix + name + ".")
+    walk(_Root, "")
+    return out
+
+
 def _fields_at(model_cls, loc) -> list[str]:
     """Valid keys of the mapping at key path ``loc`` (for 'did you mean')."""
     cls = model_cls
@@ -198,16 +224,18 @@ def _fields_at(model_cls, loc) -> list[str]:
         f = getattr(cls, "model_fields", {}).get(part)
         if f is None:
             return []
-        ann = f.annotation
-        if isinstance(ann, type) and issubclass(ann, BaseModel):
-            cls = ann
-        else:
+        models = [a for a in (f.annotation, *getattr(f.annotation, "__args__", ()))
+                  if isinstance(a, type) and issubclass(a, BaseModel)]  # also Optional[model]
+        if not models:
             return []
+        cls = models[0]
     return list(getattr(cls, "model_fields", {}))
 
 
 def _pydantic_to_config_error(exc: ValidationError, path) -> ConfigError:
-    err = exc.errors(include_url=False)[0]
+    errors = exc.errors(include_url=False)
+    # an unknown key explains a "missing" one next to it (a misspelling): report it first
+    err = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
     loc = [str(p) for p in err["loc"] if not str(p).startswith(("function-", "union"))]
     # drop pydantic's union branch names such as 'float', 'list[float]'
     loc = [p for p in loc if p not in ("float", "list[float]", "str", "list", "dict", "int")]

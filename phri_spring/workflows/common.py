@@ -110,7 +110,6 @@ def _fe_module(cfg: Config):
 
 def _coupled_model(cfg: Config, cache_dir=None):
     """The coupled tissue model of a config (docs/model.md section 10)."""
-    from ..io.surface_stiffness import load_or_build, load_surface_stiffness
     from ..physics.coupled import build_coupled_model
 
     key = "tissue.continuum"
@@ -133,6 +132,8 @@ def _coupled_model(cfg: Config, cache_dir=None):
         raise ConfigError(f"the coupled model needs a Poisson ratio below 0.5 (a compressible "
                           f"continuum), got {cfg.poisson_ratio:g}", file=cfg.path,
                           key="tissue.poisson_ratio")
+    from ..io.surface_stiffness import load_or_build, load_surface_stiffness
+
     if cfg.continuum_surface_stiffness is not None:
         K = load_surface_stiffness(cfg.continuum_surface_stiffness, geom)
         E = None
