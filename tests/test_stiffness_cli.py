@@ -167,7 +167,7 @@ def test_bad_config_key(tmp_path):
     p = tmp_path / "bad.yaml"
     p.write_text(yaml.safe_dump(data))
     res = run("stiffness", p, "--json")
-    assert_one_line_error(res, "bad.yaml", "tissue.stiffness")
+    assert_one_line_error(res, "bad.yaml", "tissue.stifness", "did you mean 'stiffness'")
     assert stdout_of(res) == ""
 
 
