@@ -122,7 +122,7 @@ def test_equilibrium_matches_an_independent_qp_solver(dofs):
     g = _geometry()
     model = build_coupled_model(g, _kernel_K(g, dofs=dofs), np.linspace(5e4, 5e5, g.n),
                                 strap_tension=15.0)
-    W = _logs(30, seed=11)[::3]
+    W = _logs(30, seed=11)[::5]   # 8 samples, several with patches lifted off
     sol = solve(model, W)
     assert sol.converged.all()
     for i, w in enumerate(W):
