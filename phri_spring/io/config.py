@@ -173,7 +173,34 @@ def _check_document(loader, root) -> None:
     walk(root, "")
 
 
+_QUOTED_OR_COMMENT = re.compile(r'"(?:[^"\\\n]|\\.)*"|\'(?:[^\'\n]|\'\')*\'|(?:^|(?<=\s))#[^\n]*',
+                                re.M)
+_NOT_BRACKET = re.compile(r"[^\[\]{}]+")
+
+
+def _flow_depth(text: str) -> int:
+    """Deepest nesting of flow lists and mappings (``[`` ``{``), quoted text and comments aside.
+
+    PyYAML's scanner looks ahead over every open bracket on a line, which costs
+    time in the square of the nesting: the depth is bounded before parsing.
+    """
+    if "[" not in text and "{" not in text:
+        return 0
+    brackets = _NOT_BRACKET.sub("", _QUOTED_OR_COMMENT.sub("", text))
+    if not brackets:
+        return 0
+    import numpy as np
+
+    codes = np.frombuffer(brackets.encode("ascii"), dtype=np.uint8)
+    step = np.where((codes == ord("[")) | (codes == ord("{")), 1, -1)
+    return int(np.cumsum(step).max())
+
+
 def _parse_yaml(text: str) -> Any:
+    depth = _flow_depth(text)
+    if depth > MAX_YAML_DEPTH:
+        raise _YamlLimit(f"lists and mappings nested deeper than {MAX_YAML_DEPTH} levels "
+                         f"({depth} brackets deep); expected a config-like document")
     loader = _StrictSafeLoader(text)
     try:
         root = loader.get_single_node()
