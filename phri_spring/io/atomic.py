@@ -20,9 +20,10 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import OutputError, PhriError, UsageError
+from ..errors import OutputError, UsageError
 
-__all__ = ["atomic_file", "atomic_directory", "check_output_path", "output_error", "umask"]
+__all__ = ["atomic_file", "atomic_directory", "check_output_path", "output_error", "naming",
+           "umask"]
 
 
 def umask() -> int:
@@ -45,11 +46,13 @@ def _reason(exc: OSError) -> str:
     return str(exc).replace("\n", " ") or type(exc).__name__
 
 
-def output_error(exc: OSError, dest, tmp=None) -> PhriError:
+def output_error(exc: OSError, dest, tmp=None) -> OutputError:
     """An :class:`OutputError` naming ``dest`` (and the file inside it) for an OSError.
 
     ``tmp`` is the temporary path standing for ``dest``: a file name inside it
-    is shown as the same name inside ``dest``.
+    is shown as the same name inside ``dest``. Writers that do not name the file
+    in their error (pandas, matplotlib, pyarrow) are named by ``dest`` itself,
+    unless the caller set ``exc.filename`` (see :func:`naming`).
     """
     dest = Path(dest)
     where = dest
@@ -61,6 +64,21 @@ def output_error(exc: OSError, dest, tmp=None) -> PhriError:
         except ValueError:
             pass
     return OutputError(f"cannot write ({_reason(exc)})", file=where)
+
+
+@contextmanager
+def naming(path):
+    """Give an ``OSError`` raised inside without a file name the name ``path``.
+
+    For writers that do not say which file failed (``DataFrame.to_csv`` on a
+    full disk, ``Figure.savefig``), so that the error names the file.
+    """
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is None:
+            exc.filename = os.fspath(path)
+        raise
 
 
 def _is_ours(exc: OSError, tmp) -> bool:
@@ -167,7 +185,7 @@ def atomic_file(dest, suffix: str | None = None):
         try:
             yield dest
         except OSError as exc:
-            if isinstance(exc, PhriError) or not _is_ours(exc, dest):
+            if not _is_ours(exc, dest):
                 raise
             raise output_error(exc, dest) from None
         return
@@ -187,7 +205,7 @@ def atomic_file(dest, suffix: str | None = None):
     except OSError as exc:
         if tmp is not None:
             _unlink(tmp)
-        if isinstance(exc, PhriError) or (tmp is not None and not _is_ours(exc, tmp)):
+        if tmp is not None and not _is_ours(exc, tmp):
             raise
         raise output_error(exc, dest, tmp) from None
     except BaseException:
@@ -232,13 +250,16 @@ def atomic_directory(dest):
             shutil.rmtree(tmp, ignore_errors=True)
         tmp = None
     except OSError as exc:
-        if tmp is not None:
+        if tmp is not None and not _is_ours(exc, tmp):
             shutil.rmtree(tmp, ignore_errors=True)
-        if isinstance(exc, PhriError) or (tmp is not None and not _is_ours(exc, tmp)):
             raise
         if exc.errno == errno.ENOTEMPTY or exc.errno == errno.EEXIST:
-            raise OutputError(f"cannot write ({_reason(exc)})", file=dest) from None
-        raise output_error(exc, dest, tmp) from None
+            err = OutputError(f"cannot write ({_reason(exc)})", file=dest)
+        else:
+            err = output_error(exc, dest, tmp)  # before the clean-up: it looks inside tmp
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        raise err from None
     except BaseException:
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
