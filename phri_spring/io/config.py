@@ -450,7 +450,8 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = Fal
 
     text = read_text(csv_path, what="a stiffness CSV")
     try:
-        df = pd.read_csv(io.StringIO(text), comment="#")
+        df = pd.read_csv(io.StringIO(text), comment="#",
+                         dtype={"stiffness_N_per_m": str})  # raw text, for messages
     except Exception as exc:  # noqa: BLE001 - any parser failure is bad data
         msg = str(exc).replace("\n", " ")
         raise DataError(f"cannot read as CSV ({msg})", file=csv_path) from None

@@ -31,7 +31,8 @@ def _write_log(path: Path, n: int, seed: int = 3) -> Path:
                                                                  "Mz"))})
     table = pa.table(data)
     if path.suffix == ".csv":
-        pacsv.write_csv(table, path, pacsv.WriteOptions(quoting_style="none"))
+        pacsv.write_csv(table, path, pacsv.WriteOptions(quoting_style="none",
+                                                         quoting_header="none"))
     else:
         pq.write_table(table, path)
     return path
@@ -58,11 +59,19 @@ def inputs(tmp_path_factory):
         "baseline: start}\n", encoding="utf-8")
     ind = base / "indenter"
     shutil.copytree(INDENTER, ind, ignore=shutil.ignore_patterns("*.md", "README*"))
+    ind_small = base / "indenter_small"     # two locations: quick plots
+    ind_small.mkdir()
+    for src in sorted(ind.glob("A[01]_*.csv")):
+        shutil.copy(src, ind_small / src.name)
+    man1 = exp / "manifest_one.yaml"         # one trial: quick figures
+    man1.write_text("trials:\n"
+                    f"  - {{file: {TRIALS[0]}, experiment: I-Act, direction: horizontal, "
+                    "trial: 1}\n", encoding="utf-8")
     refs = base / "reference"
     refs.mkdir()
     ref = {"base": base, "cfg": cfg, "log_csv": log_csv, "log_parquet": log_pq, "exp": exp,
            "manifest": exp / "manifest.yaml", "stiffness": exp / "stiffness.csv",
-           "indenter": ind}
+           "indenter": ind, "indenter_small": ind_small, "manifest_one": man1}
     run = cli("simulate", cfg, log_csv, "-o", refs / "forces.csv", "-q")
     assert run.code == 0, run.stderr
     run = cli("compare", cfg, exp / "manifest.yaml", "-o", refs / "cmp", "--no-figures", "-q",

@@ -110,7 +110,7 @@ def test_fit_stiffness_file_size_limit_on_the_plots(inputs, out):
     figs.mkdir()
     _existing(figs, "stiffness_map.png", b"old png")
     before = snapshot(out)
-    run = phri("fit-stiffness", inputs["indenter"], "-o", existing, "--plots", figs,
+    run = phri("fit-stiffness", inputs["indenter_small"], "-o", existing, "--plots", figs,
                fsize=16 << 10)
     assert_fault(run, 1, r"figs/\w+\.png: cannot write \(File too large\)", before=before,
                  folders=[out])
@@ -143,7 +143,7 @@ def test_compare_output_in_a_virtual_file_system(inputs):
 @pytest.mark.parametrize("limit,where", [(8 << 10, r"cmp/loads\.csv"),
                                          (40 << 10, r"cmp(/[\w/]+\.png)?")])
 def test_compare_file_size_limit_on_tables_and_figures(inputs, out, limit, where):
-    """8 kB stops the loads table (29 kB); 40 kB lets the tables through, stops a figure.
+    """8 kB stops the loads table (15 kB); 40 kB lets the tables through, stops a figure.
 
     (A figure's file is named when the figure writer says which; else the folder.)
     """
@@ -153,14 +153,14 @@ def test_compare_file_size_limit_on_tables_and_figures(inputs, out, limit, where
     (outdir / "heatmaps").mkdir()
     _existing(outdir / "heatmaps", "keep.png", b"a figure of an earlier run")
     before = snapshot(outdir)
-    run = phri("compare", inputs["cfg"], inputs["manifest"], "-o", outdir, fsize=limit)
+    run = phri("compare", inputs["cfg"], inputs["manifest_one"], "-o", outdir, fsize=limit)
     assert_fault(run, 1, rf"{where}: cannot write \(File too large\)", before=before,
                  folders=[out])
 
 
 def test_compare_new_output_folder_is_not_created_on_failure(inputs, out):
     outdir = out / "new"
-    run = phri("compare", inputs["cfg"], inputs["manifest"], "-o", outdir, "--no-figures",
+    run = phri("compare", inputs["cfg"], inputs["manifest_one"], "-o", outdir, "--no-figures",
                fsize=8 << 10)
     assert_fault(run, 1, r"new/loads\.csv: cannot write", folders=[out])
     assert not outdir.exists()
