@@ -370,8 +370,9 @@ def read_long_table(path, displacement_unit: str = "mm", skip_bad: bool = False
         raise DataError(f"line {i + 2}: location {str(loc.iloc[i])!r}; expected row letters and "
                         "an angle index, e.g. B3", file=path, key="location")
     tri = _numbers(df[cmap["trial"]], path, "trial")
-    if (tri != np.round(tri)).any():
-        i = int(np.argmax(tri != np.round(tri)))
+    bad_trial = (tri != np.round(tri)) | (np.abs(tri) >= 2.0 ** 53)   # beyond exact integers
+    if bad_trial.any():
+        i = int(np.argmax(bad_trial))
         raise DataError(f"line {i + 2}: trial {tri[i]:g}; expected an integer trial number",
                         file=path, key="trial")
     tri = tri.astype(int)
