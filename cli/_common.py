@@ -78,9 +78,17 @@ class PhriGroup(click.Group):
             args.remove("--traceback")
             os.environ["PHRI_TRACEBACK"] = "1"
         prog = prog_name or "phri"
+        import warnings
+
         try:
-            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
-                              standalone_mode=False, **extra)
+            with warnings.catch_warnings():
+                if not _want_traceback():
+                    # no Python warning line for the user (numpy RuntimeWarnings on absurd
+                    # values, library deprecations): what matters is in the data and the
+                    # one-line messages; --traceback shows them
+                    warnings.simplefilter("ignore")
+                rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
+                                  standalone_mode=False, **extra)
         except click.exceptions.NoArgsIsHelpError as exc:  # pragma: no cover - click>=8.2
             click.echo(exc.ctx.get_help() if exc.ctx else str(exc), err=True)
             sys.exit(EXIT_USAGE)

@@ -119,16 +119,10 @@ def main(argv=None):
     """
     import sys
 
-    import warnings
-
-    from ._common import _want_traceback, handle_signals
+    from ._common import handle_signals
 
     _tune_memory()
-    handle_signals()
-    if not (_want_traceback() or "--traceback" in (sys.argv[1:] if argv is None else argv)):
-        # no Python warning line for the user (numpy RuntimeWarnings on absurd values,
-        # library deprecations): results that are not finite are reported in the data
-        warnings.simplefilter("ignore")
+    handle_signals()   # SIGTERM and SIGHUP like Ctrl-C; SIGXFSZ ignored (EFBIG instead)
     code = 0
     try:
         phri.main(args=argv, prog_name="phri")

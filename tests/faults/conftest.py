@@ -3,17 +3,12 @@
 from __future__ import annotations
 
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-HERE = Path(__file__).resolve().parent
-if str(HERE) not in sys.path:
-    sys.path.insert(0, str(HERE))
-
-from faultkit import CONFIG, EXPERIMENT, INDENTER, cli  # noqa: E402
+from .faultkit import CONFIG, EXPERIMENT, INDENTER, cli
 
 TRIALS = ("iact_horizontal_1.csv", "iipass_horizontal_1.csv")
 

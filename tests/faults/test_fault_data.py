@@ -10,7 +10,7 @@ import shutil
 import numpy as np
 import pytest
 
-from faultkit import assert_fault, assert_one_line, cli, phri, snapshot
+from .faultkit import assert_fault, assert_one_line, cli, phri, snapshot
 
 TRIAL = "iact_horizontal_1.csv"
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from faultkit import (ENCODINGS, assert_fault, assert_one_line, cli, phri, snapshot,
+from .faultkit import (ENCODINGS, assert_fault, assert_one_line, cli, phri, snapshot,
                       write_encoded)
 
 DEGREE = "# recorded at 23 \N{DEGREE SIGN}C by the lab PC\n"

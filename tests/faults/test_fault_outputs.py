@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from faultkit import assert_fault, cli, phri, snapshot
+from .faultkit import assert_fault, cli, phri, snapshot
 
 SYS = Path("/sys")
 

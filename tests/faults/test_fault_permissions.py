@@ -10,7 +10,7 @@ from contextlib import contextmanager
 
 import pytest
 
-from faultkit import cli, phri
+from .faultkit import cli, phri
 
 
 @contextmanager

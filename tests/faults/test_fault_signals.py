@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from faultkit import SIGNALS, assert_fault, signal_run, snapshot, start_phri, temporaries, \
+from .faultkit import SIGNALS, assert_fault, signal_run, snapshot, start_phri, temporaries, \
     wait_for
 
 

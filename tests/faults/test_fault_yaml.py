@@ -12,7 +12,7 @@ import tracemalloc
 
 import pytest
 
-from faultkit import assert_fault, cli, phri, snapshot
+from .faultkit import assert_fault, cli, phri, snapshot
 
 
 def laughs(key_root: str, width: int = 10, levels: int = 12) -> str:
