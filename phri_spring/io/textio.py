@@ -163,6 +163,10 @@ def read_text(path, *, what: str = "text", max_bytes: int | None = None) -> str:
     except OSError as exc:
         raise DataError(f"cannot read ({exc.strerror or exc})", file=path) from None
     enc = sniff_encoding(data[:SNIFF_BYTES], path, what=what)
+    if enc.codec == "utf-8" and not enc.bom and len(data) > SNIFF_BYTES:
+        # the whole file is at hand: a Latin-1 byte after the sniffed start still makes it
+        # Latin-1 text (if it holds no control characters)
+        enc = sniff_encoding(data, path, what=what)
     try:
         text = data[enc.bom:].decode(enc.codec)
     except UnicodeDecodeError as exc:
