@@ -171,7 +171,9 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
         skip = 0  # leading comment lines ('# ...') are allowed
         try:
             with open(path, "rb") as fh:
-                enc = sniff_encoding(fh.read(SNIFF_BYTES), path, what="a CSV wrench log")
+                head = fh.read(SNIFF_BYTES)
+                enc = sniff_encoding(head, path, what="a CSV wrench log",
+                                     complete=len(head) < SNIFF_BYTES or not fh.read(1))
                 fh.seek(enc.bom)
                 if enc.is_utf8:
                     head = fh.readline()

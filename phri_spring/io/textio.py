@@ -77,7 +77,8 @@ def _reject(path, what: str) -> DataError:
                      "'CSV UTF-8' / UTF-8 text", file=path)
 
 
-def sniff_encoding(head: bytes, path=None, *, what: str = "text") -> TextEncoding:
+def sniff_encoding(head: bytes, path=None, *, what: str = "text",
+                   complete: bool | None = None) -> TextEncoding:
     """Choose the encoding of a text file from its first bytes.
 
     Parameters
@@ -89,6 +90,9 @@ def sniff_encoding(head: bytes, path=None, *, what: str = "text") -> TextEncodin
         The file, for messages.
     what : str
         What the file should be (``a CSV table``), for messages.
+    complete : bool, optional
+        True if ``head`` is the whole file (then a multi-byte character cut at its
+        end is an error). Default: ``len(head) < SNIFF_BYTES``.
 
     Returns
     -------
@@ -99,11 +103,12 @@ def sniff_encoding(head: bytes, path=None, *, what: str = "text") -> TextEncodin
     DataError
         Binary data, or text in an encoding that cannot be told from its bytes.
     """
+    final = len(head) < SNIFF_BYTES if complete is None else bool(complete)
     for bom, codec, name in _BOMS:
         if head.startswith(bom):
             body = head[len(bom):]
             try:
-                codecs.getincrementaldecoder(codec)().decode(body, final=False)
+                codecs.getincrementaldecoder(codec)().decode(body, final=final)
             except UnicodeDecodeError:
                 raise _reject(path, f"not valid {name} text although it starts with a "
                                     f"{name} byte-order mark") from None
@@ -123,7 +128,7 @@ def sniff_encoding(head: bytes, path=None, *, what: str = "text") -> TextEncodin
     if head.translate(None, _CONTROL) != head:
         raise _reject(path, f"binary data (control characters), not {what}")
     try:
-        codecs.getincrementaldecoder("utf-8")().decode(head, final=False)
+        codecs.getincrementaldecoder("utf-8")().decode(head, final=final)
     except UnicodeDecodeError:
         return TextEncoding("latin-1", 0, "Latin-1")
     return TextEncoding("utf-8", 0, "UTF-8")
@@ -162,11 +167,12 @@ def read_text(path, *, what: str = "text", max_bytes: int | None = None) -> str:
         raise DataError(f"is a folder; expected {what}", file=path) from None
     except OSError as exc:
         raise DataError(f"cannot read ({exc.strerror or exc})", file=path) from None
-    enc = sniff_encoding(data[:SNIFF_BYTES], path, what=what)
+    enc = sniff_encoding(data[:SNIFF_BYTES], path, what=what,
+                         complete=len(data) <= SNIFF_BYTES)
     if enc.codec == "utf-8" and not enc.bom and len(data) > SNIFF_BYTES:
         # the whole file is at hand: a Latin-1 byte after the sniffed start still makes it
         # Latin-1 text (if it holds no control characters)
-        enc = sniff_encoding(data, path, what=what)
+        enc = sniff_encoding(data, path, what=what, complete=True)
     try:
         text = data[enc.bom:].decode(enc.codec)
     except UnicodeDecodeError as exc:
@@ -189,9 +195,10 @@ def open_text(path, *, what: str = "text"):
     try:
         with open(path, "rb") as fh:
             head = fh.read(SNIFF_BYTES)
+            complete = not fh.read(1)
     except OSError as exc:
         raise DataError(f"cannot read ({exc.strerror or exc})", file=path) from None
-    enc = sniff_encoding(head, path, what=what)
+    enc = sniff_encoding(head, path, what=what, complete=complete)
     codec = {"utf-16-le": "utf-16", "utf-16-be": "utf-16", "utf-32-le": "utf-32",
              "utf-32-be": "utf-32"}.get(enc.codec, "utf-8-sig" if enc.codec == "utf-8"
                                         else enc.codec)

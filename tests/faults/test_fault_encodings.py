@@ -138,3 +138,56 @@ def test_latin1_column_name_is_decoded_not_mangled(inputs, tmp_path):
     assert out.read_bytes() == inputs["ref_forces"]
     run = cli("simulate", inputs["cfg"], log, "-o", tmp_path / "g.csv")
     assert_one_line(run, 1, r"missing column 'Fx'", "\N{DEGREE SIGN}")
+
+
+# --------------------------------------------------------------------------- the decoding rule
+from hypothesis import HealthCheck, assume, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_TEXT = st.text(st.characters(blacklist_categories=("Cs", "Cc"), blacklist_characters="\ufeff")
+                | st.sampled_from("\t\n\r,;#\N{DEGREE SIGN}\N{MICRO SIGN}"), max_size=300)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=_TEXT, encoding=st.sampled_from(["utf-8", "utf-8-bom", "utf-16-le-bom",
+                                             "utf-16-be-bom"]))
+def test_read_text_returns_the_text_written_in_any_unicode_encoding(tmp_path, text, encoding):
+    """UTF-8 with or without BOM and UTF-16 with BOM give back exactly the text written."""
+    from phri_spring.io.textio import read_text
+
+    path = write_encoded(tmp_path / "t.txt", text, encoding)
+    assert read_text(path) == text
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(text=st.text(st.characters(min_codepoint=0x20, max_codepoint=0xFF,
+                                  blacklist_characters="\x7f")
+                    .filter(lambda c: not 0x80 <= ord(c) <= 0x9F), min_size=1, max_size=200))
+def test_read_text_reads_latin1_that_is_not_utf8(tmp_path, text):
+    """Latin-1 text (printable, not also valid UTF-8) is read as Latin-1."""
+    from phri_spring.io.textio import read_text
+
+    data = text.encode("latin-1")
+    try:
+        data.decode("utf-8")
+        assume(False)   # also valid UTF-8: read as UTF-8, as every editor would
+    except UnicodeDecodeError:
+        pass
+    path = tmp_path / "t.txt"
+    path.write_bytes(data)
+    assert read_text(path) == text
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(junk=st.binary(min_size=8, max_size=400).filter(lambda b: b"\x00" in b or any(
+    c < 9 or 13 < c < 32 for c in b)))
+def test_binary_data_is_refused_naming_the_file(tmp_path, junk):
+    """Bytes with NUL or control characters (and no byte-order mark) are not text."""
+    from phri_spring.errors import DataError
+    from phri_spring.io.textio import read_text
+
+    assume(not junk.startswith((b"\xef\xbb\xbf", b"\xff\xfe", b"\xfe\xff", b"\x00\x00\xfe\xff")))
+    path = tmp_path / "junk.csv"
+    path.write_bytes(junk)
+    with pytest.raises(DataError, match=r"junk\.csv: .*(binary|UTF-16|not)"):
+        read_text(path)
