@@ -105,7 +105,8 @@ def phri():
       phri compare configs/harmony_upper_arm.yaml examples/experiment/manifest.yaml -o cmp/
 
     Add --traceback to any command to see the Python traceback of an error.
-    Exit status: 0 success, 1 bad data or failed run, 2 bad usage.
+    Exit status: 0 success, 1 bad data or failed run, 2 bad usage, 128 + N when
+    stopped by signal N (Ctrl-C 130, SIGTERM 143, SIGHUP 129).
     """
 
 

@@ -107,9 +107,7 @@ def _file_in_the_way(path: Path):
     for anc in path.parents:
         try:
             st = os.stat(anc)
-        except FileNotFoundError:
-            continue
-        except NotADirectoryError:
+        except (FileNotFoundError, NotADirectoryError):  # not there (yet): look further up
             continue
         except OSError:
             return None
