@@ -19,6 +19,7 @@ reported by the reader that meets it.
 from __future__ import annotations
 
 import codecs
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -73,8 +74,7 @@ class TextEncoding:
 
 def _reject(path, what: str) -> DataError:
     return DataError(f"{what}; expected a text file in UTF-8 (or UTF-16 with a byte-order "
-                     "mark): open it in a spreadsheet or editor and save it as "
-                     "'CSV UTF-8' / UTF-8 text", file=path)
+                     "mark): save it as UTF-8 text (a spreadsheet's 'CSV UTF-8')", file=path)
 
 
 def sniff_encoding(head: bytes, path=None, *, what: str = "text",
@@ -120,8 +120,10 @@ def sniff_encoding(head: bytes, path=None, *, what: str = "text",
         raise _reject(path, f"{label}, not {what}")
     if b"\x00" in head:
         # UTF-16 without a BOM has every other byte 0 on ASCII text
-        if len(head) >= 4 and (head[1::2].count(0) > 0.4 * len(head[1::2])
-                               or head[0::2].count(0) > 0.4 * len(head[0::2])):
+        odd, even = head[1::2], head[0::2]
+        zeros = (odd.count(0) / max(len(odd), 1), even.count(0) / max(len(even), 1))
+        if len(head) >= 4 and ((zeros[0] > 0.4 and zeros[1] < 0.1)
+                               or (zeros[1] > 0.4 and zeros[0] < 0.1)):
             raise _reject(path, "UTF-16 text without a byte-order mark (cannot tell its byte "
                                 "order)")
         raise _reject(path, f"binary data (NUL bytes), not {what}")
@@ -154,13 +156,16 @@ def read_text(path, *, what: str = "text", max_bytes: int | None = None) -> str:
     path = Path(path)
     try:
         with open(path, "rb") as fh:
-            if max_bytes is not None:
-                size = fh.seek(0, 2)
-                if size > max_bytes:
-                    raise DataError(f"file of {size:,} bytes is too large for {what} (at most "
-                                    f"{max_bytes:,} bytes)", file=path)
-                fh.seek(0)
-            data = fh.read()
+            if max_bytes is None:
+                data = fh.read()
+            else:  # read no more than the bound (a device such as /dev/zero never ends)
+                data = fh.read(max_bytes + 1)
+                if len(data) > max_bytes:
+                    sniff_encoding(data[:SNIFF_BYTES], path, what=what)  # binary: say so
+                    size = os.fstat(fh.fileno()).st_size
+                    size = f"{size:,} bytes" if size > max_bytes else f"more than {max_bytes:,} bytes"
+                    raise DataError(f"{size}: too large for {what} (at most {max_bytes:,} "
+                                    "bytes)", file=path)
     except FileNotFoundError:
         raise DataError(f"file not found; expected {what}", file=path) from None
     except IsADirectoryError:

@@ -199,3 +199,22 @@ def test_hostile_tissue_stiffness_files(inputs, tmp_path):
                   "--no-figures", "--tissue-stiffness", path)
         assert_fault(run, 1, pattern, folders=[tmp_path])
     assert not Path(tmp_path / "cmp").exists()
+
+
+@pytest.mark.parametrize("device", ["/dev/zero", "/dev/urandom"])
+def test_a_device_given_as_config_or_manifest(inputs, out, device):
+    """A device that never ends is refused after reading at most the YAML bound."""
+    if not Path(device).exists():
+        pytest.skip(f"no {device}")
+    run = cli("simulate", device, inputs["log_csv"], "-o", out / "f.csv")
+    assert_fault(run, 1, device, "binary|too large", folders=[out])
+    run = cli("compare", inputs["cfg"], device, "-o", out / "cmp", "--no-figures")
+    assert_fault(run, 1, device, "binary|too large", folders=[out])
+
+
+def test_names_too_long_for_the_file_system(inputs, out):
+    long_name = "a" * 300 + ".csv"
+    run = cli("simulate", inputs["cfg"], inputs["log_csv"], "-o", out / long_name)
+    assert_fault(run, 1, "File name too long", folders=[out])
+    run = cli("simulate", inputs["cfg"], out / long_name, "-o", out / "f.csv")
+    assert_fault(run, 1, "File name too long", folders=[out])
