@@ -6,6 +6,7 @@ import os
 import signal
 import sys
 import traceback
+import warnings
 
 import click
 
@@ -78,8 +79,6 @@ class PhriGroup(click.Group):
             args.remove("--traceback")
             os.environ["PHRI_TRACEBACK"] = "1"
         prog = prog_name or "phri"
-        import warnings
-
         try:
             with warnings.catch_warnings():
                 if not _want_traceback():
@@ -120,7 +119,7 @@ class PhriGroup(click.Group):
                 sys.exit(exc.exit_code)
             if isinstance(exc, OSError):
                 # an input or output the system refuses (outputs are named by OutputError)
-                name = exc.filename if exc.filename is not None else None
+                name = exc.filename
                 reason = os.strerror(exc.errno) if exc.errno else str(exc).replace("\n", " ")
                 where = f"{os.fsdecode(name)}: " if name is not None else ""
                 click.echo(f"{prog}: error: {where}{reason}", err=True)
