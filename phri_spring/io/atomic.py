@@ -149,7 +149,7 @@ def check_output_path(output, inputs=(), option: str = "-o/--output", directory:
 
 
 def _new_mode(dest: Path, default: int) -> int:
-    """Mode for the file replacing ``dest``: its own if it exists, else ``default`` less the umask."""
+    """Mode of what replaces ``dest``: its own if it exists, else ``default`` less the umask."""
     try:
         st = os.stat(dest)
         if stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode):
@@ -160,7 +160,7 @@ def _new_mode(dest: Path, default: int) -> int:
 
 
 def _special(dest: Path) -> bool:
-    """True for an existing output that is not a regular file (a device such as /dev/null, a FIFO)."""
+    """True for an existing output that is not a regular file (a device, /dev/null, a FIFO)."""
     try:
         st = os.stat(dest)
     except OSError:

@@ -163,7 +163,8 @@ def read_text(path, *, what: str = "text", max_bytes: int | None = None) -> str:
                 if len(data) > max_bytes:
                     sniff_encoding(data[:SNIFF_BYTES], path, what=what)  # binary: say so
                     size = os.fstat(fh.fileno()).st_size
-                    size = f"{size:,} bytes" if size > max_bytes else f"more than {max_bytes:,} bytes"
+                    size = (f"{size:,} bytes" if size > max_bytes
+                            else f"more than {max_bytes:,} bytes")
                     raise DataError(f"{size}: too large for {what} (at most {max_bytes:,} "
                                     "bytes)", file=path)
     except FileNotFoundError:

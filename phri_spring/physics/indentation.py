@@ -53,7 +53,8 @@ __all__ = [
     "TrialError", "LinearFits", "TrialFit", "LocationFit",
     "ONSET_SIGMAS", "ONSET_FLOOR", "REST_TREND_SIGMAS", "REVERSAL_FLOOR", "REVERSAL_FRACTION",
     "MIN_FIT_POINTS", "DEFAULT_MIN_R2", "DEFAULT_MAX_SPREAD",
-    "zero_level", "window_trend", "check_at_rest", "default_onset_threshold", "detect_onset", "turning_points",
+    "zero_level", "window_trend", "check_at_rest", "default_onset_threshold", "detect_onset",
+    "turning_points",
     "split_strokes", "fit_line", "stroke_work", "fit_trial", "fit_location",
     "location_statistics", "trial_spread",
 ]

@@ -148,7 +148,8 @@ _TEXT = st.text(st.characters(blacklist_categories=("Cs", "Cc"), blacklist_chara
                 | st.sampled_from("\t\n\r,;#\N{DEGREE SIGN}\N{MICRO SIGN}"), max_size=300)
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=_TEXT, encoding=st.sampled_from(["utf-8", "utf-8-bom", "utf-16-le-bom",
                                              "utf-16-be-bom"]))
 def test_read_text_returns_the_text_written_in_any_unicode_encoding(tmp_path, text, encoding):
@@ -159,7 +160,8 @@ def test_read_text_returns_the_text_written_in_any_unicode_encoding(tmp_path, te
     assert read_text(path) == text
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=60, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(text=st.text(st.characters(min_codepoint=0x20, max_codepoint=0xFF,
                                   blacklist_characters="\x7f")
                     .filter(lambda c: not 0x80 <= ord(c) <= 0x9F), min_size=1, max_size=200))
@@ -178,7 +180,8 @@ def test_read_text_reads_latin1_that_is_not_utf8(tmp_path, text):
     assert read_text(path) == text
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(junk=st.binary(min_size=8, max_size=400).filter(lambda b: b"\x00" in b or any(
     c < 9 or 13 < c < 32 for c in b)))
 def test_binary_data_is_refused_naming_the_file(tmp_path, junk):
