@@ -3,13 +3,61 @@
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import traceback
+import warnings
 
 import click
 
 EXIT_DATA = 1
 EXIT_USAGE = 2
+
+
+class Interrupted(BaseException):
+    """Raised in the main thread by SIGINT, SIGTERM or SIGHUP (see :func:`handle_signals`).
+
+    A ``BaseException`` like ``KeyboardInterrupt``: nothing catches it but the
+    clean-up code (``finally``, temporary outputs removed) and :class:`PhriGroup`,
+    which exits with status 128 + the signal number.
+    """
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = int(signum)
+
+    @property
+    def name(self) -> str:
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:  # pragma: no cover
+            return f"signal {self.signum}"
+
+
+def _on_signal(signum, frame):
+    # once only: the clean-up that follows (removing temporary files) must not be cut short
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except (OSError, ValueError):  # pragma: no cover
+            pass
+    raise Interrupted(signum)
+
+
+def handle_signals() -> None:
+    """Make SIGTERM and SIGHUP behave like Ctrl-C: clean up, then exit 128 + signal number.
+
+    Also ignores SIGXFSZ, so that a file-size limit (``ulimit -f``) makes a write
+    fail with EFBIG, reported as one line, instead of killing the process and
+    leaving a temporary file behind. A SIGHUP already ignored (``nohup``) stays
+    ignored. Call from the main thread, before the command runs.
+    """
+    for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+        if sig != signal.SIGINT and signal.getsignal(sig) == signal.SIG_IGN:
+            continue
+        signal.signal(sig, _on_signal)
+    if hasattr(signal, "SIGXFSZ"):
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
 def _want_traceback() -> bool:
@@ -32,8 +80,14 @@ class PhriGroup(click.Group):
             os.environ["PHRI_TRACEBACK"] = "1"
         prog = prog_name or "phri"
         try:
-            rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
-                              standalone_mode=False, **extra)
+            with warnings.catch_warnings():
+                if not _want_traceback():
+                    # no Python warning line for the user (numpy RuntimeWarnings on absurd
+                    # values, library deprecations): what matters is in the data and the
+                    # one-line messages; --traceback shows them
+                    warnings.simplefilter("ignore")
+                rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
+                                  standalone_mode=False, **extra)
         except click.exceptions.NoArgsIsHelpError as exc:  # pragma: no cover - click>=8.2
             click.echo(exc.ctx.get_help() if exc.ctx else str(exc), err=True)
             sys.exit(EXIT_USAGE)
@@ -44,9 +98,17 @@ class PhriGroup(click.Group):
         except click.ClickException as exc:
             click.echo(f"{prog}: error: {exc.format_message()}", err=True)
             sys.exit(exc.exit_code)
-        except click.Abort:
+        except click.Abort as exc:
+            if isinstance(exc.__context__, KeyboardInterrupt):  # Ctrl-C without handle_signals
+                click.echo(f"{prog}: interrupted (SIGINT)", err=True)
+                sys.exit(128 + signal.SIGINT)
             click.echo(f"{prog}: aborted", err=True)
             sys.exit(EXIT_DATA)
+        except Interrupted as exc:
+            if _want_traceback():
+                traceback.print_exc()
+            click.echo(f"{prog}: interrupted ({exc.name}); no output written", err=True)
+            sys.exit(128 + exc.signum)
         except Exception as exc:  # noqa: BLE001 - the one place errors become exit codes
             from phri_spring.errors import PhriError
 
@@ -55,6 +117,13 @@ class PhriGroup(click.Group):
             if isinstance(exc, PhriError):
                 click.echo(f"{prog}: error: {exc}", err=True)
                 sys.exit(exc.exit_code)
+            if isinstance(exc, OSError):
+                # an input or output the system refuses (outputs are named by OutputError)
+                name = exc.filename
+                reason = os.strerror(exc.errno) if exc.errno else str(exc).replace("\n", " ")
+                where = f"{os.fsdecode(name)}: " if name is not None else ""
+                click.echo(f"{prog}: error: {where}{reason}", err=True)
+                sys.exit(EXIT_DATA)
             if isinstance(exc, MemoryError):
                 click.echo(f"{prog}: error: out of memory", err=True)
                 sys.exit(EXIT_DATA)

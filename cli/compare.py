@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from ._common import info
+from ._common import info, progress_enabled
 
 
 @click.command("compare", context_settings={"help_option_names": ["-h", "--help"]})
@@ -61,7 +61,7 @@ def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, q
     check_output_path(output, [config, manifest, tissue_stiffness], option="-o/--output",
                       directory=True)
     result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness)
-    if not no_figures:
+    if not no_figures and progress_enabled(None):  # progress: only on a terminal
         n_fig = 1 + sum(len(tc.conditions) for tc in result.trials)   # bars, wrench, heat maps
         info(f"compare: {len(result.trials)} trials analysed; writing {n_fig} figures ...",
              quiet)

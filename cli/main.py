@@ -107,7 +107,8 @@ def phri():
       phri compare configs/harmony_upper_arm.yaml examples/experiment/manifest.yaml -o cmp/
 
     Add --traceback to any command to see the Python traceback of an error.
-    Exit status: 0 success, 1 bad data or failed run, 2 bad usage.
+    Exit status: 0 success, 1 bad data or failed run, 2 bad usage, 128 + N when
+    stopped by signal N (Ctrl-C 130, SIGTERM 143, SIGHUP 129).
     """
 
 
@@ -121,7 +122,10 @@ def main(argv=None):
     """
     import sys
 
+    from ._common import handle_signals
+
     _tune_memory()
+    handle_signals()   # SIGTERM and SIGHUP like Ctrl-C; SIGXFSZ ignored (EFBIG instead)
     code = 0
     try:
         phri.main(args=argv, prog_name="phri")

@@ -11,6 +11,7 @@ class                      exit code   meaning
 ``DataError``              1           bad data in an input file (CSV, log, ...)
 ``ConfigError``            1           bad config or manifest (YAML)
 ``ConvergenceError``       1           the solver failed (reported, never hidden)
+``OutputError``            1           the system refused an output (full disk, ...)
 ``UsageError``             2           bad command-line usage (options, paths)
 ========================  ==========  ==========================================
 """
@@ -25,6 +26,7 @@ __all__ = [
     "ConfigError",
     "ConfigTypeError",
     "ConvergenceError",
+    "OutputError",
     "UsageError",
 ]
 
@@ -76,6 +78,11 @@ class ConfigTypeError(ConfigError, TypeError):
 
 class ConvergenceError(PhriError, RuntimeError):
     """The equilibrium solver did not converge for some samples."""
+
+
+class OutputError(PhriError):
+    """The system refused to write an output: full disk, file-size limit, read-only place,
+    a file where a folder should be. ``file`` is the output the user asked for."""
 
 
 class UsageError(PhriError, ValueError):

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import difflib
+import io
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -226,11 +227,10 @@ def load_manifest(path) -> Manifest:
 
 
 # --------------------------------------------------------------------------- trial tables
-def _header(path: Path) -> list:
+def _header(text: str, path: Path) -> list:
     try:
-        with open(path, newline="", encoding="utf-8-sig") as fh:
-            return [c.strip() for c in next(csv.reader(fh), [])]
-    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        return [c.strip() for c in next(csv.reader(io.StringIO(text)), [])]
+    except csv.Error as exc:
         raise DataError(f"cannot read as CSV ({exc.__class__.__name__}: {exc})",
                         file=path) from None
 
@@ -239,14 +239,18 @@ def _read_table(path: Path):
     """The trial table as a DataFrame of text (CSV) or its own types (Parquet)."""
     import pandas as pd
 
+    from .textio import read_text
+
     if path.suffix.lower() in (".parquet", ".pq"):
         try:
             df = pd.read_parquet(path)
         except Exception as exc:  # noqa: BLE001 - any reader failure is bad data
-            raise DataError(f"cannot read as Parquet ({exc})", file=path) from None
+            msg = str(exc).replace("\n", " ")
+            raise DataError(f"cannot read as Parquet ({msg})", file=path) from None
         df.columns = [str(c).strip() for c in df.columns]
         return df, False
-    cols = _header(path)
+    text = read_text(path, what="a CSV trial table")
+    cols = _header(text, path)
     if not any(cols):
         raise DataError("empty file; expected a header with time, Fx, Fy, Fz, Mx, My, Mz, the "
                         "element labels and condition", file=path)
@@ -255,8 +259,8 @@ def _read_table(path: Path):
         raise DataError(f"column {dup[0]!r} appears more than once; expected each column once",
                         file=path, key=dup[0])
     try:
-        df = pd.read_csv(path, dtype=str, keep_default_na=False, na_filter=False,
-                         skipinitialspace=True, encoding="utf-8-sig")
+        df = pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False, na_filter=False,
+                         skipinitialspace=True)
     except Exception as exc:  # noqa: BLE001 - any parser failure is bad data
         msg = str(exc).replace("\n", " ")
         raise DataError(f"cannot read as CSV ({msg})", file=path) from None
@@ -271,12 +275,13 @@ def _numeric(df, col):
 
 
 def _conditions(values) -> np.ndarray:
+    """Condition of every row, '' for a missing one in any spelling (empty, NaN, NA, null,
+    pandas' ``<NA>``, ...: :data:`~phri_spring.io.textio.NA_STRINGS`)."""
+    from .textio import is_missing
+
     out = np.empty(len(values), dtype=object)
     for i, v in enumerate(values):
-        if v is None or (isinstance(v, float) and np.isnan(v)):
-            out[i] = ""
-        else:
-            out[i] = str(v).strip()
+        out[i] = "" if is_missing(v) else str(v).strip()
     return out
 
 

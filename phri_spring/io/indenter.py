@@ -25,6 +25,7 @@ column and what was expected.
 
 from __future__ import annotations
 
+import io
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -200,10 +201,13 @@ def _columns_map(columns, file, required, layout_hint: str) -> dict:
 def _read_table(path: Path):
     import pandas as pd
 
+    from .textio import read_text
+
     try:
         if path.suffix.lower() in (".parquet", ".pq"):
             return pd.read_parquet(path)
-        return pd.read_csv(path, skipinitialspace=True)
+        text = read_text(path, what="a CSV indenter table")
+        return pd.read_csv(io.StringIO(text), skipinitialspace=True)
     except pd.errors.EmptyDataError:
         raise DataError("empty file; expected a CSV header and data rows", file=path) from None
     except pd.errors.ParserError as exc:
@@ -211,8 +215,15 @@ def _read_table(path: Path):
         raise DataError(f"not a readable CSV ({msg})", file=path) from None
     except UnicodeDecodeError:
         raise DataError("not a text CSV file (cannot decode it)", file=path) from None
+    except DataError:
+        raise
     except (OSError, ValueError) as exc:
-        raise DataError(f"cannot read the file ({exc})", file=path) from None
+        msg = str(exc).replace("\n", " ")
+        raise DataError(f"cannot read the file ({msg})", file=path) from None
+    except Exception as exc:  # noqa: BLE001 - any other reader failure (pyarrow) is bad data
+        msg = str(exc).replace("\n", " ")
+        raise DataError(f"cannot read the file ({type(exc).__name__}: {msg})",
+                        file=path) from None
 
 
 # --------------------------------------------------------------------------- per-trial files
@@ -359,8 +370,9 @@ def read_long_table(path, displacement_unit: str = "mm", skip_bad: bool = False
         raise DataError(f"line {i + 2}: location {str(loc.iloc[i])!r}; expected row letters and "
                         "an angle index, e.g. B3", file=path, key="location")
     tri = _numbers(df[cmap["trial"]], path, "trial")
-    if (tri != np.round(tri)).any():
-        i = int(np.argmax(tri != np.round(tri)))
+    bad_trial = (tri != np.round(tri)) | (np.abs(tri) >= 2.0 ** 53)   # beyond exact integers
+    if bad_trial.any():
+        i = int(np.argmax(bad_trial))
         raise DataError(f"line {i + 2}: trial {tri[i]:g}; expected an integer trial number",
                         file=path, key="trial")
     tri = tri.astype(int)
@@ -402,11 +414,14 @@ def read_long_table(path, displacement_unit: str = "mm", skip_bad: bool = False
 def _has_location_column(path: Path) -> bool:
     if path.suffix.lower() != ".csv":
         return True
+    from .textio import open_text
+
     try:
-        with open(path, encoding="utf-8", errors="replace") as fh:
+        fh, _ = open_text(path, what="a CSV indenter table")
+        with fh:
             header = fh.readline()
-    except OSError:
-        return True
+    except (DataError, OSError, UnicodeDecodeError):
+        return True  # read_long_table reports it
     return "location" in [h.strip().lower() for h in header.split(",")]
 
 

@@ -124,7 +124,8 @@ def _check_chunk(arr: np.ndarray, start: int, names, path, fmt) -> None:
     if bad.any():
         i, j = np.argwhere(bad)[0]
         val = arr[i, j]
-        what = "an empty cell or NaN" if np.isnan(val) else repr(float(val))
+        what = "an empty cell or NaN" if np.isnan(val) else \
+            f"{float(val)!r} (beyond the range of a double, e.g. 1e999)"
         loc = f"line {start + i + 2}" if fmt == "csv" else f"row {start + i + 1}"
         raise DataError(f"expected a finite number on {loc}, got {what}", file=path,
                         key=names[j])
@@ -165,18 +166,36 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
     if fmt == "csv":
         import pyarrow.csv as pacsv
 
+        from .textio import SNIFF_BYTES, open_text, sniff_encoding
+
         skip = 0  # leading comment lines ('# ...') are allowed
         try:
             with open(path, "rb") as fh:
-                head = fh.readline()
-                while head.lstrip().startswith(b"#"):
-                    skip += 1
+                head = fh.read(SNIFF_BYTES)
+                enc = sniff_encoding(head, path, what="a CSV wrench log",
+                                     complete=len(head) < SNIFF_BYTES or not fh.read(1))
+                fh.seek(enc.bom)
+                if enc.is_utf8:
                     head = fh.readline()
+                    while head.lstrip().startswith(b"#"):
+                        skip += 1
+                        head = fh.readline()
+            if not enc.is_utf8:  # UTF-16/32 or Latin-1: pyarrow transcodes, lines read here
+                text, _ = open_text(path, what="a CSV wrench log")
+                with text:
+                    line = text.readline()
+                    while line.lstrip().startswith("#"):
+                        skip += 1
+                        line = text.readline()
+                head = line.encode("utf-8")
             header = pacsv.read_csv(pa.py_buffer(head),
                                     read_options=pacsv.ReadOptions(autogenerate_column_names=False)
                                     ).column_names if head.strip() else []
         except OSError as exc:
             raise DataError(f"cannot read ({exc.strerror or exc})", file=path) from None
+        except UnicodeDecodeError as exc:
+            raise DataError(f"not valid {enc.name} text in its first lines ({exc.reason}); "
+                            "expected a text file in UTF-8", file=path) from None
         except pa.ArrowInvalid:
             header = []
         if not header:
@@ -187,9 +206,13 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
         # cost more in page faults than they save (measured)
         block = int(min(max(1 << 16, int(chunk_rows) * 8 * len(header)), 1 << 21))
         try:
+            codec = {"utf-16-le": "utf-16", "utf-16-be": "utf-16", "utf-32-le": "utf-32",
+                     "utf-32-be": "utf-32"}.get(enc.codec, enc.codec)
+            ropts = pacsv.ReadOptions(block_size=block, use_threads=False, skip_rows=skip)
+            if not enc.is_utf8:
+                ropts.encoding = codec
             reader = pacsv.open_csv(
-                path, read_options=pacsv.ReadOptions(block_size=block, use_threads=False,
-                                                     skip_rows=skip),
+                path, read_options=ropts,
                 convert_options=pacsv.ConvertOptions(
                     include_columns=names, column_types={c: pa.float64() for c in names}))
             it = iter(reader)
@@ -208,6 +231,9 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
             raise _arrow_error(exc, path, header, skip) from None
         except pa.ArrowException as exc:
             raise DataError(f"cannot read as CSV ({exc})".replace("\n", " "), file=path) from None
+        except UnicodeDecodeError as exc:
+            raise DataError(f"not valid {enc.name} text at byte {exc.start:,} of a block "
+                            f"({exc.reason}); expected a text file in UTF-8", file=path) from None
     else:
         import pyarrow.parquet as pq
 

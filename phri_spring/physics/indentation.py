@@ -51,9 +51,10 @@ import numpy as np
 
 __all__ = [
     "TrialError", "LinearFits", "TrialFit", "LocationFit",
-    "ONSET_SIGMAS", "ONSET_FLOOR", "REVERSAL_FLOOR", "REVERSAL_FRACTION",
+    "ONSET_SIGMAS", "ONSET_FLOOR", "REST_TREND_SIGMAS", "REVERSAL_FLOOR", "REVERSAL_FRACTION",
     "MIN_FIT_POINTS", "DEFAULT_MIN_R2", "DEFAULT_MAX_SPREAD",
-    "zero_level", "default_onset_threshold", "detect_onset", "turning_points",
+    "zero_level", "window_trend", "check_at_rest", "default_onset_threshold", "detect_onset",
+    "turning_points",
     "split_strokes", "fit_line", "stroke_work", "fit_trial", "fit_location",
     "location_statistics", "trial_spread",
 ]
@@ -340,6 +341,75 @@ def zero_level(time, force, zero_window: float = 3.0) -> tuple[float, float]:
     return float(fw.mean()), float(fw.std(ddof=1))
 
 
+#: a zero window whose force trend changes it by more than this many noise SDs is not at rest
+REST_TREND_SIGMAS = 10.0
+
+
+def window_trend(time, force, zero_window: float = 3.0) -> tuple[float, float]:
+    """Change of the force along the zero window's own trend, and the window's noise.
+
+    A line is fitted to force against time over the window (as in
+    :func:`zero_level`); the change is its slope times the window's span. The
+    noise is estimated from successive differences, ``SD(diff(f)) / sqrt(2)``,
+    which a slow push does not inflate (unlike the SD about the mean, which
+    sets the default onset threshold).
+
+    Parameters
+    ----------
+    time : array_like, shape (m,)
+        Sample times [s], increasing, longer than the window.
+    force : array_like, shape (m,)
+        Raw force [N].
+    zero_window : float
+        [s]
+
+    Returns
+    -------
+    change : float
+        Force change along the fitted trend over the window [N] (signed).
+    noise_sd : float
+        Noise SD from successive differences [N].
+    """
+    t = np.asarray(time, dtype=float)
+    f = np.asarray(force, dtype=float)
+    window = (t - t[0]) < zero_window
+    tw, fw = t[window], f[window]
+    if tw.size < 3:
+        return 0.0, 0.0
+    tc = tw - tw.mean()
+    denom = float(tc @ tc)
+    slope = float(tc @ (fw - fw.mean())) / denom if denom > 0 else 0.0
+    return slope * float(tw[-1] - tw[0]), float(np.std(np.diff(fw), ddof=1) / np.sqrt(2.0))
+
+
+def check_at_rest(time, force, zero_window: float = 3.0,
+                  sigmas: float = REST_TREND_SIGMAS, floor: float | None = None) -> None:
+    """Refuse a trial whose indenter is already pushing (or releasing) in the zero window.
+
+    A push that starts inside the window raises both the zero level and the
+    noise SD, hence the default onset threshold, so the trial would otherwise be
+    rejected as "no indentation" or mis-zeroed. Detected from the window's own
+    trend (:func:`window_trend`), whatever onset threshold is in force: the
+    trial is refused if the trend changes the force by more than
+    ``max(sigmas * noise, floor)`` over the window.
+
+    Raises
+    ------
+    TrialError
+        Naming the change, the window's length and how to change it.
+    """
+    floor = ONSET_FLOOR if floor is None else float(floor)
+    change, noise = window_trend(time, force, zero_window)
+    if abs(change) > max(sigmas * noise, floor):
+        how = "rises" if change > 0 else "falls"
+        ratio = f", {abs(change) / noise:.0f} times its noise" if noise > 0 else ""
+        raise TrialError(f"the indenter was not at rest inside the zero window of "
+                         f"{zero_window:g} s: the force {how} {abs(change):.3g} N along its "
+                         f"trend over the window{ratio}; expected the indenter at rest (force "
+                         f"flat) for the first {zero_window:g} s: record a rest period first, "
+                         "or set a shorter zero window (--zero-window SECONDS)", key="force")
+
+
 def default_onset_threshold(noise_sd: float, sigmas: float = ONSET_SIGMAS,
                             floor: float = ONSET_FLOOR) -> float:
     """Default onset threshold ``max(sigmas * noise_sd, floor)`` [N].
@@ -596,6 +666,7 @@ def fit_trial(time, displacement, force, *, zero_window: float = 3.0,
                          f"{t[i - 1]:.6g} s); expected strictly increasing time", key="time")
 
     level, noise = zero_level(t, f_raw, zero_window)
+    check_at_rest(t, f_raw, zero_window)
     f = f_raw - level
     if onset_threshold is None:
         threshold = default_onset_threshold(noise)

@@ -36,7 +36,7 @@ from typing import Optional, Sequence, Union
 import numpy as np
 
 from ..errors import ConvergenceError, DataError, UsageError
-from ..io.atomic import atomic_directory, check_output_path
+from ..io.atomic import atomic_directory, check_output_path, naming
 from ..io.config import Config, load_config, resolve_stiffness
 from ..io.experiment import WRENCH_COLUMNS, Manifest, TrialData, load_manifest, read_trial
 from ..physics.metrics import mean_and_se, rmse as rmse_eq1, zero_on
@@ -465,7 +465,8 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
     fig_index = []
     with atomic_directory(outdir) as tmp:
         def csv(df, name):
-            df.to_csv(tmp / name, index=False, float_format="%.10g")
+            with naming(tmp / name):
+                df.to_csv(tmp / name, index=False, float_format="%.10g")
             written.append(outdir / name)
 
         csv(result.rmse, "rmse.csv")

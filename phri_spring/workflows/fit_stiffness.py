@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import DataError, UsageError
-from ..io.atomic import atomic_directory, atomic_file, check_output_path
+from ..io.atomic import atomic_directory, atomic_file, check_output_path, naming
 from ..io.indenter import (STIFFNESS_COLUMNS, SkippedTrial, read_indenter, split_label,
                            write_stiffness_csv, write_trials_csv)
 from ..physics.indentation import (DEFAULT_MAX_SPREAD, DEFAULT_MIN_R2, LocationFit,
@@ -291,7 +291,8 @@ def _save_plots(result: FitStiffnessResult, folder: Path, dpi: int) -> list[Path
     for name, make in zip(PLOT_FILES, (force_displacement_grid, stiffness_map)):
         fig = make(result.locations)
         path = folder / name
-        fig.savefig(path, dpi=dpi)
+        with naming(path):
+            fig.savefig(path, dpi=dpi)
         files.append(path)
     return files
 

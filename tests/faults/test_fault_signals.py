@@ -1,0 +1,65 @@
+"""Signals (issue 13): SIGTERM, SIGHUP (and SIGINT) sent to a real ``phri`` process in the
+middle of writing its output: the temporary files are removed, an existing output is left
+byte-identical, stderr holds one line and the exit status is 128 + the signal number.
+
+The signal is sent once the process's temporary output exists (it is mid-write), on logs
+long enough (two hours, 720,000 samples) that the run is far from its end.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from .faultkit import SIGNALS, assert_fault, signal_run, snapshot, start_phri, temporaries, \
+    wait_for
+
+
+def _interrupt(proc, sig_name: str, folder, settle: float = 0.15):
+    wait_for(lambda: temporaries(folder), proc)
+    time.sleep(settle)   # well inside the write
+    assert proc.poll() is None, "the run ended before the signal; use a longer log"
+    return signal_run(proc, SIGNALS[sig_name])
+
+
+@pytest.mark.parametrize("fmt", ["csv", "parquet"])
+@pytest.mark.parametrize("sig_name", ["SIGTERM", "SIGHUP"])
+def test_simulate_interrupted_mid_write(inputs, long_logs, out, fmt, sig_name):
+    existing = out / f"forces.{fmt}"
+    existing.write_bytes(b"the forces of an earlier run\n")
+    before = snapshot(existing)
+    proc = start_phri("simulate", inputs["cfg"], long_logs[fmt], "-o", existing)
+    run = _interrupt(proc, sig_name, out)
+    assert_fault(run, 128 + SIGNALS[sig_name], rf"interrupted \({sig_name}\)",
+                 before=before, folders=[out])
+
+
+def test_simulate_ctrl_c_mid_write(inputs, long_logs, out):
+    proc = start_phri("simulate", inputs["cfg"], long_logs["csv"], "-o", out / "new.csv")
+    run = _interrupt(proc, "SIGINT", out)
+    assert_fault(run, 130, r"interrupted \(SIGINT\)", folders=[out])
+    assert not (out / "new.csv").exists()
+
+
+def test_compare_interrupted_while_writing_figures(inputs, out):
+    outdir = out / "cmp"
+    outdir.mkdir()
+    (outdir / "rmse.csv").write_text("an earlier run\n")
+    before = snapshot(outdir)
+    proc = start_phri("compare", inputs["cfg"], inputs["manifest_one"], "-o", outdir)
+    wait_for(lambda: any(p.suffix == ".png" for t in temporaries(out) for p in t.rglob("*")),
+             proc)
+    run = signal_run(proc, SIGNALS["SIGTERM"])
+    assert_fault(run, 143, r"interrupted \(SIGTERM\)", before=before, folders=[out])
+
+
+def test_fit_stiffness_interrupted_while_writing_plots(inputs, out):
+    existing = out / "fit.csv"
+    existing.write_text("an earlier fit\n")
+    figs = out / "figs"
+    before = snapshot(existing, figs)
+    proc = start_phri("fit-stiffness", inputs["indenter"], "-o", existing, "--plots", figs)
+    run = _interrupt(proc, "SIGHUP", out, settle=0.0)
+    assert_fault(run, 129, r"interrupted \(SIGHUP\)", before=before, folders=[out])
+    assert not figs.exists()
