@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import click
 
 from ._common import StderrProgress, info, progress_enabled, warn
@@ -70,8 +72,12 @@ def simulate(config, log, output, arm, shear, baseline, columns, decimals, chunk
     if summary.not_converged:
         warn(f"the solver did not converge for {summary.not_converged:,} of "
              f"{summary.samples:,} samples; their forces are NaN (column 'converged')")
+    if math.isfinite(summary.max_peak_pressure_kpa):
+        peak = (f"peak pressure {summary.max_peak_pressure_kpa:.4g} kPa at "
+                f"{summary.max_peak_element}, t = {summary.max_peak_time:g} s "
+                f"({100 * summary.max_pain_ratio:.3g}% of the pain threshold)")
+    else:
+        peak = "no converged sample, no peak pressure"
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
-         f"{arm} arm, baseline {base}); peak pressure {summary.max_peak_pressure_kpa:.1f} kPa at "
-         f"{summary.max_peak_element}, t = {summary.max_peak_time:g} s "
-         f"({100 * summary.max_pain_ratio:.0f}% of the pain threshold); solver {summary.mean_iterations:.2f} solves/sample on average",
-         quiet)
+         f"{arm} arm, baseline {base}); {peak}; solver {summary.mean_iterations:.2f} "
+         f"solves/sample on average", quiet)

@@ -282,3 +282,21 @@ def test_streamed_summary_peak_is_the_first_largest_over_all_chunks(tmp_path):
         assert s.max_peak_pressure_kpa == pytest.approx(mem.peak_pressure_kpa[j], rel=1e-12)
         assert s.max_peak_element == cfg.labels[int(mem.peak_element[j])]
         assert s.max_pain_ratio == pytest.approx(mem.pain_ratio[j], rel=1e-12)
+
+
+@pytest.mark.parametrize("arm", ["compliant", "rigid"])
+def test_absurd_finite_wrenches_are_not_converged_and_warn_nothing(arm):
+    # issue 13: a finite wrench so large that the forces overflow is no answer: the sample
+    # is reported as not converged with NaN forces, its neighbours are untouched, and no
+    # RuntimeWarning escapes (the test suite turns those into errors)
+    model = _model(3, 7, arm=arm, seed=1)
+    W = np.zeros((6, 6))
+    W[1, 0], W[2, 2], W[3, 3], W[4, 5] = 1e308, -1e308, 1e306, 1e300
+    W[5, 2] = 30.0
+    sol = sv.solve(model, W)
+    assert sol.converged.tolist() == [True, False, False, False, False, True]
+    assert np.isnan(sol.forces[1:5]).all() and np.isfinite(sol.forces[[0, 5]]).all()
+    np.testing.assert_array_equal(sol.forces[[0, 5]], sv.solve(model, W[[0, 5]]).forces)
+    one = sv.Solver(model)
+    assert np.isnan(one.forces(W[1])).all() and not one.last_converged
+    assert np.isfinite(one.forces(W[5])).all() and one.last_converged
