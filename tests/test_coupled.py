@@ -241,3 +241,30 @@ def test_random_cuffs_converge_to_the_kkt_point(rows, count, step, c0, beta, ell
 def test_bad_surface_stiffness_is_rejected(K, match):
     with pytest.raises(ValueError, match=match):
         build_coupled_model(_geometry(), K, 1e5)
+
+
+def test_normal_output_map_is_consistent_with_the_default():
+    # N q with N_e = n_e^T K_t,e (the force along n_e of patch e's own skin motion) is what
+    # the model reports without an output map when K_t is block diagonal; with a
+    # perturbed N, the hoop preload is still what the patches report at zero wrench
+    rng = np.random.default_rng(3)
+    g = _geometry()
+    k_t = rng.uniform(30e3, 60e3, g.n)
+    K = _diagonal_K(g, k_t, shear_ratio_from_poisson(0.45))
+    N = np.zeros((g.n, 3 * g.n))
+    for e in range(g.n):
+        N[e, 3 * e:3 * e + 3] = g.normals[e] @ K[3 * e:3 * e + 3, 3 * e:3 * e + 3]
+    k_c = rng.uniform(5e4, 5e5, g.n)
+    plain = build_coupled_model(g, K, k_c, strap_tension=15.0)
+    mapped = build_coupled_model(g, K, k_c, strap_tension=15.0, normal_output=N)
+    W = _logs(600, seed=23)
+    a, b = solve(plain, W), solve(mapped, W)
+    np.testing.assert_allclose(b.forces, a.forces, rtol=0, atol=1e-10 * np.abs(a.forces).max())
+    np.testing.assert_allclose([Solver(mapped).forces(w) for w in W[:50]], a.forces[:50],
+                               rtol=0, atol=1e-10 * np.abs(a.forces).max())
+    N2 = N * (1 + 0.05 * rng.standard_normal(N.shape)) + 500.0 * rng.standard_normal(N.shape)
+    perturbed = build_coupled_model(g, K, k_c, strap_tension=15.0, normal_output=N2)
+    spring_f0 = build_model(g, k_t, k_c, strap_tension=15.0).f0
+    np.testing.assert_allclose(solve(perturbed, np.zeros(6)).forces, spring_f0, rtol=1e-9)
+    with pytest.raises(ValueError, match="normal output"):
+        build_coupled_model(g, K, k_c, normal_output=N[:, :10])

@@ -125,6 +125,10 @@ class CoupledModel:
         Total compliance C_t + C_c, local axes [m/N, ...].
     C_t : ndarray, shape (n*d, n*d)
         Tissue compliance K_t^-1, local axes.
+    N_out : ndarray, shape (n, n*d), or None
+        Normal-force output, local axes: the normal force a patch reports is
+        N_out q for the skin's patch motions q, the integral over the patch of the
+        normal traction (from the built-in FE; None: the patch force along n_e).
     """
 
     geometry: CuffGeometry
@@ -144,6 +148,8 @@ class CoupledModel:
                                                        "docs/model.md section 10"))
     strap_model: str = "hoop"
     pain_threshold_kpa: float = field(default=120.0, metadata=_unit("kPa", "docs/model.md section 4"))
+    N_out: np.ndarray | None = field(default=None, repr=False,
+                                     metadata=_unit("[N/m, N/rad]", "docs/model.md section 10"))
     inv_area_kpa: np.ndarray = field(init=False, repr=False, metadata=_unit("1/(1000 N)", "derived"))
     normal_dofs: np.ndarray = field(init=False, repr=False, metadata=_unit("-", "derived"))
 
@@ -264,7 +270,13 @@ class CoupledSystem(ContactSystem):
         Q[~S_row] = m.T[free] - CtND @ GT
         q0[~S_row] = m.delta[free] - CtND @ Gd
         Qt = np.ascontiguousarray(Q.T)
-        return (Mt, c, Qt, q0, D, GT, Gd, np.abs(Qt), np.abs(q0))
+        if m.N_out is None:  # reported normal force = the patch force along n_e
+            Ft, f0 = Qt * S_row, q0 * S_row
+        else:                # the normal traction integrated over each pressing patch
+            NC = m.N_out @ m.C_t[:, D]
+            Ft = np.ascontiguousarray((NC @ GT).T) * S_row
+            f0 = (NC @ Gd) * S_row
+        return (Mt, c, Qt, q0, D, GT, Gd, np.abs(Qt), np.abs(q0), Ft, f0)
 
     def solve_sets(self, keys, S, r):
         m = len(keys)
@@ -304,9 +316,23 @@ class CoupledSystem(ContactSystem):
         wrong = (S & (q < -tol)) | (~S & (q > tol))
         return ~wrong.any(axis=-1)
 
-    def forces(self, q, out=None):
-        """Normal patch forces [N]: the indicator's positive part (a force in S, <= 0 outside)."""
-        return np.maximum(q, 0.0, out=out)
+    def forces(self, q, out=None, u=None):
+        """Reported normal patch forces [N] (m, n) at the solution (u, its indicator q).
+
+        Without an output map, the indicator's positive part (the patch force along
+        n_e in S, <= 0 outside). With one (``N_out``), the normal traction integrated
+        over each pressing patch, 0 for a patch that has lifted off, and never below 0.
+        """
+        if self.model.N_out is None:
+            return np.maximum(q, 0.0, out=out)
+        S = q > 0
+        keys = set_keys(S)
+        f = np.empty(q.shape)
+        u = np.atleast_2d(u)
+        for key, idx in _groups(keys):
+            Ft, f0 = self.factors(key, S[idx[0]])[9:11]
+            f[idx] = u[idx] @ Ft + f0
+        return np.maximum(f, 0.0, out=out)
 
     # ------------------------------------------------------------------ safeguard
     def _reduced_problem(self):
@@ -361,7 +387,7 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                         shear_ratio: float | None = None, strap_tension: float = 15.0,
                         strap_model: str = "hoop", handle_angles_deg=None,
                         handle_axial_position: float | None = None,
-                        pain_threshold_kpa: float = 120.0) -> CoupledModel:
+                        pain_threshold_kpa: float = 120.0, normal_output=None) -> CoupledModel:
     """Assemble the coupled model of docs/model.md section 10.
 
     Parameters
@@ -379,6 +405,10 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
         As :func:`phri_spring.physics.model.build_model`. With the hoop strap the
         patches carry, at zero wrench, the normal forces f0 of the spring model.
     pain_threshold_kpa : float
+    normal_output : array_like, shape (n, 3n) or (n, 6n), optional
+        N: the normal force a patch reports, N q [N], for the skin's patch motions q
+        (same dof layout as K_surface), e.g. the integral of the normal traction over
+        the patch (the built-in FE's). Default: the patch force along n_e.
 
     Raises
     ------
@@ -421,11 +451,25 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     C = C_t + np.diag(cc.ravel())
     T = R @ rigid_patch_map(geometry, dofs)
 
+    N_out = None
+    if normal_output is not None:
+        N_g = np.asarray(normal_output, dtype=float)
+        if N_g.shape != (n, n * dofs) or not np.isfinite(N_g).all():
+            raise ValueError(f"normal output: expected finite numbers of shape ({n}, {n * dofs}), "
+                             f"got {N_g.shape}")
+        N_out = N_g @ R.T
+
     if strap_model == "hoop":
         row_w = geometry.row_width[:: geometry.n_angles]
         f0 = hoop_preload(strap_tension, geometry.span, geometry.row_width, row_w)
         P0 = np.zeros(n * dofs)
-        P0[np.arange(n) * dofs] = f0
+        normals = np.arange(n) * dofs
+        P0[normals] = f0
+        if N_out is not None and strap_tension > 0:
+            # normal patch forces p such that the patches *report* f0 at zero wrench
+            p = np.linalg.solve((N_out @ C_t)[:, normals], f0)
+            if np.all(p > 0):
+                P0[normals] = p
         delta = C @ P0
         W_pre = T.T @ P0
     elif strap_model == "handles":
@@ -445,7 +489,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
 
     model = CoupledModel(geometry=geometry, arm="coupled", K_t=K, dofs=dofs, k_cuff=k_c,
                          shear_ratio=eta, delta=delta, f0=f0, W_pre=W_pre, T=T, C=C, C_t=C_t,
-                         strap_model=strap_model, pain_threshold_kpa=float(pain_threshold_kpa))
+                         strap_model=strap_model, pain_threshold_kpa=float(pain_threshold_kpa),
+                         N_out=N_out)
     # every patch lifted off: the tangential ties alone must hold the cuff
     try:
         model.contact_system(FactorCache(0))._reduced_problem()

@@ -294,7 +294,7 @@ class SpringSystem(ContactSystem):
         """Contact sets at displacements u: the compression's sign (the set does not matter)."""
         return self.indicator(u) > 0
 
-    def forces(self, q, out=None):
+    def forces(self, q, out=None, u=None):
         """Normal forces [N] from the indicator (compression) q; in place if ``out is q``."""
         return forces_from_compression(self.model, q, out=out)
 
@@ -403,7 +403,7 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
                 ub, qb, _, itb, cb = iterate(system, rb, S0, max_iterations, q_out=qb)
             u[s:e], its[s:e], conv[s:e] = ub, itb, cb
             carry = qb[-1] > 0
-            system.forces(qb, out=qb)
+            system.forces(qb, out=qb, u=ub)
             # a displacement beyond _HUGE (or not finite) comes from an absurd input and is
             # not an answer: its forces and pressures overflow (one cheap test first)
             if not (ub.max() <= _HUGE and ub.min() >= -_HUGE):
@@ -438,7 +438,7 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     for i in range(m):
         ui, qi, _, it_i, ok = iterate(system, W[i:i + 1] + model.W_pre, full, max_iterations)
         u[i], q[i], its[i], conv[i] = ui[0], qi[0], it_i[0], ok[0]
-    forces = system.forces(q)
+    forces = system.forces(q, u=u)
     forces[~conv] = np.nan
     return Solution(u=u, forces=forces, iterations=its, converged=conv)
 
@@ -506,8 +506,8 @@ class Solver:
 
         NaN everywhere if the solver did not converge (see ``last_converged``).
         """
-        self.displacement(wrench)
-        f = self._system.forces(self._q[0])
+        u = self.displacement(wrench)
+        f = self._system.forces(self._q, u=u[None])[0]
         if not self.last_converged:
             f[:] = np.nan
         return f

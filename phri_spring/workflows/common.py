@@ -134,24 +134,30 @@ def _coupled_model(cfg: Config, cache_dir=None):
                           key="tissue.poisson_ratio")
     from ..io.surface_stiffness import load_or_build, load_surface_stiffness
 
+    N = None
     if cfg.continuum_surface_stiffness is not None:
         K = load_surface_stiffness(cfg.continuum_surface_stiffness, geom)
         E = None
     else:
         E = continuum_modulus(cfg, geom)
         _fe_module(cfg)
-        K, _ = load_or_build(geom, t, float(np.mean(E)), cfg.poisson_ratio, cache_dir=cache_dir)
+        K, info = load_or_build(geom, t, float(np.mean(E)), cfg.poisson_ratio,
+                                cache_dir=cache_dir)
+        N = info.get("N")
     if cfg.continuum_spread == "per_patch":
         if E is None:
             E = continuum_modulus(cfg, geom)
-        K = _scale_per_patch(K, E / np.mean(E), geom.n)
+        s = E / np.mean(E)
+        K = _scale_per_patch(K, s, geom.n)
+        if N is not None:  # the output follows the patch's own stiffness
+            N = N * np.repeat(np.sqrt(s), N.shape[1] // geom.n)[None, :] * np.sqrt(s)[:, None]
     try:
         return build_coupled_model(geom, K, cfg.cuff_stiffness, poisson_ratio=cfg.poisson_ratio,
                                    shear_ratio=cfg.shear_ratio, strap_tension=cfg.strap_tension,
                                    strap_model=cfg.strap_model,
                                    handle_angles_deg=cfg.handle_angles_deg,
                                    handle_axial_position=cfg.strap_axial_position,
-                                   pain_threshold_kpa=cfg.pain_threshold_kpa)
+                                   pain_threshold_kpa=cfg.pain_threshold_kpa, normal_output=N)
     except ValueError as exc:
         raise ConfigError(str(exc), file=cfg.continuum_surface_stiffness or cfg.path,
                           key=key) from None
