@@ -173,15 +173,19 @@ def _angular_breakpoints(theta, span, level):
 
 
 def _graded(length, h0, ratio):
-    """Element sizes starting at h0 and growing by ``ratio`` until they cover ``length``."""
-    sizes = []
+    """Node positions (0, length] of elements h0, h0 ratio, h0 ratio^2, ...
+
+    The sizes do not depend on ``length`` except for the last element, which ends
+    exactly at ``length``, so that meshes of different lengths agree near the start.
+    """
+    pos = []
     h, tot = h0, 0.0
-    while tot < length * (1 - 1e-9):
-        sizes.append(h)
+    while tot + h < length * (1 - 1e-9):
         tot += h
+        pos.append(tot)
         h *= ratio
-    sizes = np.array(sizes) * (length / tot)
-    return np.cumsum(sizes)
+    pos.append(length)
+    return np.array(pos)
 
 
 def _axial_breakpoints(x, width, level, extension, ratio=1.5):
@@ -424,8 +428,8 @@ def _facet_arrays(tm, ib, facets, intorder=5):
     """
     sk = _skfem()
     fb = sk["FacetBasis"](tm.mesh, ib.elem, facets=facets, intorder=intorder)
-    phi = np.stack([np.asarray(fb.basis[i][0].value) for i in range(len(fb.basis))])
-    return phi, np.asarray(fb.dx), np.asarray(fb.global_coordinates().value), fb.element_dofs
+    phi = np.stack([np.array(fb.basis[i][0]) for i in range(len(fb.basis))])
+    return phi, np.asarray(fb.dx), np.array(fb.global_coordinates()), fb.element_dofs
 
 
 def _surface_forms(tm, geometry, ib, rigid=True):
