@@ -53,13 +53,18 @@ __all__ = [
 FE_EXTRA_HINT = "the coupled model's built-in FE needs scikit-fem: pip install -e .[fe]"
 
 #: Mesh level shipped by default: level L puts L x L quadratic elements on each patch.
-DEFAULT_LEVEL = 2
+DEFAULT_LEVEL = 3
 #: Tissue modelled beyond each axial edge of the cuff, in tissue thicknesses.
-DEFAULT_LENGTH_FACTOR = 4.0
+DEFAULT_LENGTH_FACTOR = 6.0
 #: Radius of the paper's 9 mm flat indenter [m].
 PUNCH_RADIUS = 0.0045
 
 _RIGID_TOL = 1e-9
+# mesh grading (see docs/coupled-fe.md, "The mesh"): element sizes in units of the
+# patch element size h = patch width / level
+_FREE_SIZE = 1.5       # free skin between/around the patches, along the circumference
+_RADIAL_SIZE = 1.5     # through the tissue thickness
+_AXIAL_GROWTH = 1.6    # growth ratio of the elements beyond the cuff's axial edges
 
 
 def _skfem():
@@ -140,7 +145,7 @@ def _angular_breakpoints(theta, span, level):
     gaps = np.array([lo[(k + 1) % m] + (two_pi if k == m - 1 else 0.0) - hi[k]
                      for k in range(m)])
     gaps[np.abs(gaps) < 1e-9] = 0.0
-    h = float(np.min(s)) / level
+    h = _FREE_SIZE * float(np.min(s)) / level
     # seam: the middle of the largest gap (or a patch edge when the patches close the circle)
     kg = int(np.argmax(gaps))
     if gaps[kg] > 0:
@@ -188,7 +193,7 @@ def _graded(length, h0, ratio):
     return np.array(pos)
 
 
-def _axial_breakpoints(x, width, level, extension, ratio=1.5):
+def _axial_breakpoints(x, width, level, extension, ratio=_AXIAL_GROWTH):
     order = np.argsort(x)
     lo, hi = x[order] - width[order] / 2, x[order] + width[order] / 2
     for k in range(len(lo) - 1):
@@ -268,7 +273,7 @@ def _build_mesh(geometry, thickness, level, length_factor):
     ext = float(length_factor) * t
     ax = _axial_breakpoints(xr, wr, level, ext)
     h_surf = min(float(np.min(wr)), R * float(np.min(th_s))) / level
-    n_r = max(2, math.ceil(t / h_surf - 1e-9))
+    n_r = max(2, math.ceil(t / (_RADIAL_SIZE * h_surf) - 1e-9))
     rad = _radial_nodes(R, t, n_r)
     m1 = sk["MeshHex"].init_tensor(ax.nodes, ang.nodes, rad)
     m2c = sk["MeshHex2"].from_mesh(m1)
