@@ -65,6 +65,9 @@ _RIGID_TOL = 1e-9
 _FREE_SIZE = 1.5       # free skin between/around the patches, along the circumference
 _RADIAL_SIZE = 1.5     # through the tissue thickness
 _AXIAL_GROWTH = 1.6    # growth ratio of the elements beyond the cuff's axial edges
+_FREE_GROWTH = 1.6     # growth ratio of the elements over free skin between patches
+_EDGE_GRADING = 2.0    # size ratio of neighbouring elements in a patch, toward a free edge
+_RADIAL_GROWTH = 1.5   # size ratio of radial elements, from the skin inward
 
 
 def _skfem():
@@ -119,6 +122,80 @@ def _split(a, b, n):
     return np.linspace(a, b, int(n) + 1)[1:]
 
 
+def _patch_sizes(width, level, free_lo, free_hi):
+    """Sizes of the ``level`` elements across one patch, graded toward free skin edges.
+
+    At a patch edge bordering free skin the bonded plate's traction is singular; the
+    elements there shrink geometrically (ratio ``_EDGE_GRADING``) toward that edge.
+    """
+    k = np.arange(level)
+    if free_lo and free_hi:
+        e = np.minimum(k, level - 1 - k)
+    elif free_lo:
+        e = k
+    elif free_hi:
+        e = level - 1 - k
+    else:
+        e = np.zeros(level)
+    sz = _EDGE_GRADING ** e
+    return sz / sz.sum() * width
+
+
+def _gap_sizes(length, h_lo, h_hi, h_max):
+    """Element sizes over free skin of ``length``, growing from h_lo / h_hi at its ends."""
+    left, right = [], []
+    sl, sr, tot = h_lo, h_hi, 0.0
+    while True:
+        if sl <= sr:
+            if tot + sl > length * (1 + 1e-9):
+                break
+            left.append(sl)
+            tot += sl
+            sl = min(sl * _FREE_GROWTH, h_max)
+        else:
+            if tot + sr > length * (1 + 1e-9):
+                break
+            right.append(sr)
+            tot += sr
+            sr = min(sr * _FREE_GROWTH, h_max)
+    sizes = np.array(left + right[::-1]) if (left or right) else np.array([length])
+    return sizes / sizes.sum() * length
+
+
+def _line_nodes(lo, hi, level, h_max, start, end, start_free, end_free):
+    """Element boundaries over [start, end] for sorted, non-overlapping patch intervals.
+
+    ``start_free`` / ``end_free``: the first / last patch's outer edge borders free skin
+    even where it coincides with ``start`` / ``end``. Returns the nodes and the sizes of
+    the elements at the first patch's low edge and the last patch's high edge.
+    """
+    m = len(lo)
+    nodes = [start]
+    cur, cur_h = start, h_max
+    first_edge_h = last_edge_h = None
+    for k in range(m):
+        gap_before = lo[k] - cur
+        gap_after = (lo[k + 1] if k + 1 < m else end) - hi[k]
+        free_lo = gap_before > 1e-9 or (k == 0 and start_free)
+        free_hi = gap_after > 1e-9 or (k == m - 1 and end_free)
+        ps = _patch_sizes(hi[k] - lo[k], level, free_lo, free_hi)
+        if gap_before > 1e-9:
+            gs = _gap_sizes(gap_before, cur_h, ps[0], h_max)
+            nodes.extend(cur + np.cumsum(gs)[:-1])
+            nodes.append(lo[k])
+        nodes.extend(lo[k] + np.cumsum(ps)[:-1])
+        nodes.append(hi[k])
+        if k == 0:
+            first_edge_h = ps[0]
+        last_edge_h = ps[-1]
+        cur, cur_h = hi[k], ps[-1]
+    if end - cur > 1e-9:
+        gs = _gap_sizes(end - cur, cur_h, h_max, h_max)
+        nodes.extend(cur + np.cumsum(gs)[:-1])
+        nodes.append(end)
+    return np.array(nodes), first_edge_h, last_edge_h
+
+
 def _angular_breakpoints(theta, span, level):
     """Element boundaries in theta over one full turn [theta_seam, theta_seam + 2 pi].
 
@@ -145,35 +222,20 @@ def _angular_breakpoints(theta, span, level):
     gaps = np.array([lo[(k + 1) % m] + (two_pi if k == m - 1 else 0.0) - hi[k]
                      for k in range(m)])
     gaps[np.abs(gaps) < 1e-9] = 0.0
-    h = _FREE_SIZE * float(np.min(s)) / level
+    h_max = _FREE_SIZE * float(np.min(s)) / level
     # seam: the middle of the largest gap (or a patch edge when the patches close the circle)
     kg = int(np.argmax(gaps))
-    if gaps[kg] > 0:
-        seam = hi[kg] + gaps[kg] / 2
-    else:
-        seam = hi[kg]
-    # walk one turn from the seam
-    start = (kg + 1) % m
-    nodes = [seam]
-    cur = seam
+    seam = hi[kg] + gaps[kg] / 2
+    # patches in walking order from the seam, unwrapped to [seam, seam + 2 pi]
+    idx = [(kg + 1 + i) % m for i in range(m)]
+    a = np.array([lo[k] for k in idx])
+    a = seam + np.mod(a - seam + 1e-9, two_pi) - 1e-9
+    b = a + s[idx]
+    nodes, _, _ = _line_nodes(a, b, level, h_max, seam, seam + two_pi, False, False)
+    nodes[-1] = seam + two_pi
     lo_out = np.empty(m)
     hi_out = np.empty(m)
-    for i in range(m):
-        k = (start + i) % m
-        a = lo[k]
-        while a < cur - 1e-9:
-            a += two_pi
-        if a - cur > 1e-9:
-            nodes.extend(_split(cur, a, max(1, math.ceil((a - cur) / h - 1e-9))))
-        b = a + s[k]
-        nodes.extend(_split(a, b, level))
-        lo_out[order[k]], hi_out[order[k]] = a, b
-        cur = b
-    end = seam + two_pi
-    if end - cur > 1e-9:
-        nodes.extend(_split(cur, end, max(1, math.ceil((end - cur) / h - 1e-9))))
-    nodes = np.array(nodes)
-    nodes[-1] = end
+    lo_out[order[idx]], hi_out[order[idx]] = a, b
     return _Intervals(nodes, lo_out, hi_out)
 
 
@@ -200,20 +262,13 @@ def _axial_breakpoints(x, width, level, extension, ratio=_AXIAL_GROWTH):
         if hi[k] > lo[k + 1] + 1e-9:
             raise ValueError("cuff rows overlap along the arm; expected rows that tile or "
                              "leave gaps (row distance >= row width)")
-    h = float(np.min(width)) / level
-    nodes = [lo[0]]
-    cur = lo[0]
+    h_max = _FREE_SIZE * float(np.min(width)) / level
+    inner, h_first, h_last = _line_nodes(lo, hi, level, h_max, lo[0], hi[-1], True, True)
+    ext_lo = _graded(extension, h_first, ratio)
+    ext_hi = _graded(extension, h_last, ratio)
+    nodes = np.concatenate([inner[0] - ext_lo[::-1], inner, inner[-1] + ext_hi])
     lo_out, hi_out = np.empty(len(x)), np.empty(len(x))
-    for k in range(len(lo)):
-        a = max(lo[k], cur)
-        if a - cur > 1e-9:
-            nodes.extend(_split(cur, a, max(1, math.ceil((a - cur) / h - 1e-9))))
-        nodes.extend(_split(a, hi[k], level))
-        lo_out[order[k]], hi_out[order[k]] = a, hi[k]
-        cur = hi[k]
-    inner = np.array(nodes)
-    ext = _graded(extension, h, ratio)
-    nodes = np.concatenate([inner[0] - ext[::-1], inner, inner[-1] + ext])
+    lo_out[order], hi_out[order] = lo, hi
     return _Intervals(nodes, lo_out, hi_out)
 
 
@@ -273,8 +328,8 @@ def _build_mesh(geometry, thickness, level, length_factor):
     ext = float(length_factor) * t
     ax = _axial_breakpoints(xr, wr, level, ext)
     h_surf = min(float(np.min(wr)), R * float(np.min(th_s))) / level
-    n_r = max(2, math.ceil(t / (_RADIAL_SIZE * h_surf) - 1e-9))
-    rad = _radial_nodes(R, t, n_r)
+    n_r = max(2, level) * max(1, math.ceil(t / (_RADIAL_SIZE * level * h_surf) - 1e-9))
+    rad = _radial_nodes(R, t, n_r, _RADIAL_GROWTH)
     m1 = sk["MeshHex"].init_tensor(ax.nodes, ang.nodes, rad)
     m2c = sk["MeshHex2"].from_mesh(m1)
     comp = m2c.doflocs
