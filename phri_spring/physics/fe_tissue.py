@@ -24,6 +24,7 @@ inside the functions that need it.
 from __future__ import annotations
 
 import math
+from collections import OrderedDict
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -369,8 +370,8 @@ def _periodic_map(comp, thickness_tol):
     tol = 1e-9 * max(1.0, abs(th_hi))
     lo = np.nonzero(np.abs(th - th_lo) <= tol)[0]
     hi = np.nonzero(np.abs(th - th_hi) <= tol)[0]
-    key = lambda ix: np.lexsort((np.round(r[ix] / thickness_tol, 3),  # noqa: E731
-                                 np.round(x[ix] / thickness_tol, 3)))
+    key = lambda ix: np.lexsort((np.round(r[ix] / thickness_tol, 6),  # noqa: E731
+                                 np.round(x[ix] / thickness_tol, 6)))
     lo, hi = lo[key(lo)], hi[key(hi)]
     if len(lo) != len(hi) or not (np.allclose(x[lo], x[hi], atol=1e-9 * thickness_tol * 1e3)
                                   and np.allclose(r[lo], r[hi])):
@@ -567,23 +568,16 @@ def _solve_imposed(Kr, s, free, Us):
     return np.asarray(Kss @ Us) + np.asarray(Ksi @ Ui)
 
 
-@lru_cache(maxsize=8)
-def _unit_operators(key):
-    (geometry_key, thickness, poisson_ratio, level, length_factor, ends) = key
-    geometry = _GEOMETRY_REGISTRY[geometry_key]
-    return _build_unit_operators(geometry, thickness, poisson_ratio, level, length_factor, ends)
-
-
-_GEOMETRY_REGISTRY: dict = {}
+#: the last few E = 1 results of this process, most recent last
+_UNIT_CACHE: "OrderedDict[tuple, tuple]" = OrderedDict()
+_UNIT_CACHE_SIZE = 8
 
 
 def _geometry_key(geometry):
     arrays = (np.asarray(geometry.points, float), np.asarray(geometry.span, float),
               np.asarray(geometry.row_width, float), np.asarray(geometry.radius, float),
               np.asarray(geometry.theta, float), np.asarray(geometry.x, float))
-    key = (tuple(geometry.labels),) + tuple(a.tobytes() for a in arrays)
-    _GEOMETRY_REGISTRY[key] = geometry
-    return key
+    return (tuple(geometry.labels),) + tuple(a.tobytes() for a in arrays)
 
 
 def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_factor, ends):
@@ -638,9 +632,23 @@ def condensed_surface_operators(geometry, thickness, young_modulus, poisson_rati
     R = _single_radius(geometry)
     _check_material(thickness=thickness, poisson_ratio=poisson_ratio,
                     young_modulus=young_modulus, radius=R)
-    key = (_geometry_key(geometry), float(thickness), float(poisson_ratio), int(level),
-           float(length_factor), str(ends))
-    K1, N1, info = _unit_operators(key)
+    if ends not in ("fixed", "free"):
+        raise ValueError(f"ends: expected 'fixed' or 'free', got {ends!r}")
+    lf = float(length_factor)
+    if not (math.isfinite(lf) and lf > 0):
+        raise ValueError(f"length_factor: expected a finite value > 0, got {length_factor!r}")
+    if int(level) < 1:
+        raise ValueError(f"level: expected an integer >= 1, got {level!r}")
+    key = (_geometry_key(geometry), float(thickness), float(poisson_ratio), int(level), lf,
+           str(ends))
+    if key in _UNIT_CACHE:
+        _UNIT_CACHE.move_to_end(key)
+    else:
+        _UNIT_CACHE[key] = _build_unit_operators(geometry, float(thickness),
+                                                 float(poisson_ratio), int(level), lf, ends)
+        while len(_UNIT_CACHE) > _UNIT_CACHE_SIZE:
+            _UNIT_CACHE.popitem(last=False)
+    K1, N1, info = _UNIT_CACHE[key]
     E = float(young_modulus)
     return SurfaceOperators(K=K1 * E, N=N1 * E, info=dict(info))
 
