@@ -165,6 +165,35 @@ def test_mirror_symmetry_of_the_harmony_cuff(harmony_l1, plane):
     np.testing.assert_allclose(S @ K @ S.T, K, rtol=0, atol=1e-9 * np.max(np.abs(K)))
 
 
+def test_full_circle_cuff_is_cyclically_symmetric():
+    """Eight 45-degree patches closing the circle: K is invariant under a turn by one patch.
+
+    The circumference is closed by tying the mesh seam; turning the motions of patch e
+    onto patch e + 1 (both vectors of each patch rotated about the arm axis by 45 deg)
+    must turn the forces the same way: K[e+1, f+1] = Q K[e, f] Q^T.
+    """
+    n = 8
+    g = cuff_geometry([0.0], 0.04, 0.02, 10.0, 360.0 / n, n)
+    K = fe.condensed_surface_stiffness(g, 0.015, 1.0, 0.45, level=1)
+    a = 2 * np.pi / n
+    Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    Q = np.kron(np.eye(2), Rx)
+    B = K.reshape(n, 6, n, 6).transpose(0, 2, 1, 3)          # B[e, f] 6 x 6 blocks
+    scale = np.max(np.abs(K))
+    for e in range(n):
+        for f in range(n):
+            np.testing.assert_allclose(B[(e + 1) % n, (f + 1) % n], Q @ B[e, f] @ Q.T,
+                                       rtol=0, atol=1e-9 * scale)
+    # a uniform radial push of every patch: equal normal forces, no net force
+    q = np.zeros(6 * n)
+    for e in range(n):
+        q[6 * e:6 * e + 3] = g.normals[e]
+    F = (K @ q).reshape(n, 6)[:, :3]
+    fn = np.einsum("ej,ej->e", F, g.normals)
+    np.testing.assert_allclose(fn, fn[0], rtol=1e-9)
+    np.testing.assert_allclose(F.sum(axis=0), 0.0, atol=1e-9 * np.abs(fn).max())
+
+
 def test_rigid_cuff_patch_forces_shapes_and_equilibrium(harmony_l1):
     W = np.eye(6)
     f = fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W)

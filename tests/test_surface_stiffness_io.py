@@ -176,6 +176,12 @@ def test_good_export_loads(tmp_path, size):
     np.testing.assert_array_equal(out, out.T)
 
 
+def test_byte_string_labels_are_accepted(tmp_path):
+    g = small_geometry()
+    p = save(tmp_path / "k.npz", K=spd(3 * g.n), labels=np.array(g.labels, dtype="S"))
+    assert ss.load_surface_stiffness(p, g).shape == (3 * g.n, 3 * g.n)
+
+
 def _bad_cases(g):
     n = g.n
     good = spd(6 * n)

@@ -214,7 +214,8 @@ def load_surface_stiffness(path, geometry) -> np.ndarray:
     if labels.ndim != 1 or labels.dtype.kind not in "US":
         raise DataError(f"expected {n} strings, got an array of dtype {labels.dtype} "
                         f"and shape {labels.shape}", file=p, key="labels")
-    got = tuple(str(x) for x in labels.tolist())
+    got = tuple(x.decode("utf-8", "replace") if isinstance(x, bytes) else str(x)
+                for x in labels.tolist())
     if got != tuple(geometry.labels):
         raise DataError(f"patch labels {list(got)} do not match the geometry's "
                         f"{list(geometry.labels)} (same labels, same order expected)",
