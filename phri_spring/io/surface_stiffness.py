@@ -35,7 +35,11 @@ SYMMETRY_RTOL = 1e-8
 
 
 def default_cache_dir() -> Path:
-    """``$PHRI_SPRING_CACHE``, else ``$XDG_CACHE_HOME/phri-spring``, else ``~/.cache/phri-spring``."""
+    """The cache folder.
+
+    ``$PHRI_SPRING_CACHE``, else ``$XDG_CACHE_HOME/phri-spring``, else
+    ``~/.cache/phri-spring``.
+    """
     env = os.environ.get("PHRI_SPRING_CACHE")
     if env:
         return Path(env).expanduser()

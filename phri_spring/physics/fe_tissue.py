@@ -64,7 +64,7 @@ _RIGID_TOL = 1e-9
 # mesh grading (see docs/coupled-fe.md, "The mesh"): element sizes in units of the
 # patch element size h = patch width / level
 _FREE_SIZE = 1.5       # free skin between/around the patches, along the circumference
-_RADIAL_SIZE = 1.5     # through the tissue thickness
+_RADIAL_SIZE = 1.5     # a layer thicker than 1.5 patch widths gets more radial elements
 _AXIAL_GROWTH = 1.6    # growth ratio of the elements beyond the cuff's axial edges
 _FREE_GROWTH = 1.6     # growth ratio of the elements over free skin between patches
 _EDGE_GRADING = 2.0    # size ratio of neighbouring elements in a patch, toward a free edge
@@ -90,7 +90,8 @@ def _check_material(thickness=None, poisson_ratio=None, young_modulus=None, radi
     if young_modulus is not None:
         E = float(young_modulus)
         if not (math.isfinite(E) and E > 0):
-            raise ValueError(f"young_modulus: expected a finite value > 0 Pa, got {young_modulus!r}")
+            raise ValueError("young_modulus: expected a finite value > 0 Pa, "
+                             f"got {young_modulus!r}")
     if poisson_ratio is not None:
         nu = float(poisson_ratio)
         if not (math.isfinite(nu) and -1.0 < nu < 0.5):
@@ -117,10 +118,6 @@ class _Intervals:
     nodes: np.ndarray      # element boundaries, increasing
     lo: np.ndarray         # per item: start of its interval
     hi: np.ndarray         # per item: end of its interval
-
-
-def _split(a, b, n):
-    return np.linspace(a, b, int(n) + 1)[1:]
 
 
 def _patch_sizes(width, level, free_lo, free_hi):
@@ -467,7 +464,8 @@ def _assemble(tm, poisson_ratio, ends, intorder=4, chunk=256):
         Ew = Ew.reshape(c1 - c0, nb, -1)
         Tv = tr.transpose(1, 0, 2)
         Tw = (tr * w[None]).transpose(1, 0, 2)
-        Ke = 2 * mu * np.matmul(Ev, Ew.transpose(0, 2, 1)) + lam * np.matmul(Tv, Tw.transpose(0, 2, 1))
+        Ke = (2 * mu * np.matmul(Ev, Ew.transpose(0, 2, 1))
+              + lam * np.matmul(Tv, Tw.transpose(0, 2, 1)))
         d = edofs[:, c0:c1].T                                            # (m, nb)
         rows.append(np.repeat(d, nb, axis=1).ravel())
         cols.append(np.tile(d, (1, nb)).ravel())
@@ -509,7 +507,8 @@ def _surface_forms(tm, geometry, ib, rigid=True):
     nb, nf = phi.shape[0], phi.shape[2]
     Mloc = np.einsum("iafq,jafq,fq->fij", phi, phi, dx)
     d = edofs.T
-    M = sp.csr_matrix((Mloc.ravel(), (np.repeat(d, nb, axis=1).ravel(), np.tile(d, (1, nb)).ravel())),
+    M = sp.csr_matrix((Mloc.ravel(), (np.repeat(d, nb, axis=1).ravel(),
+                                      np.tile(d, (1, nb)).ravel())),
                       shape=(ib.N, ib.N))
     # patch of every cuff facet
     owner = np.empty(nf, int)
