@@ -96,15 +96,11 @@ def continuum_modulus(cfg: Config, geom: CuffGeometry | None = None) -> np.ndarr
 
 
 def _fe_module(cfg: Config):
-    from ..errors import UsageError
+    """:mod:`phri_spring.physics.fe_tissue`, after checking that scikit-fem (the ``fe`` extra)
+    is installed (a one-line UsageError naming the extra otherwise)."""
+    from ..physics import fe_tissue
 
-    try:
-        from ..physics import fe_tissue
-        fe_tissue.require_skfem()
-    except ImportError:
-        raise UsageError("the coupled model's built-in FE needs scikit-fem: pip install -e .[fe] "
-                         "(or give tissue.continuum.surface_stiffness, your own FE export)",
-                         key="--arm coupled") from None
+    fe_tissue._skfem()
     return fe_tissue
 
 
