@@ -1,0 +1,200 @@
+"""``--arm coupled`` end to end: config, built-in FE or a user's export, simulate, compare,
+stiffness, and every bad input of issue 11 (one line, exit status, nothing written).
+
+The rigid-cuff check ties the contact solver to the FE: with a rigid cuff held by a
+preload that keeps every patch pressing, the coupled model's force increments for the
+six unit wrenches are the FE's rigid-cuff response (T^T K T) u = W, f = N T u
+(``fe_tissue.rigid_cuff_patch_forces``, written independently of the solver), which
+benchmarks/FE_CONVERGENCE.md validates against a finer direct FE (<= 0.97 % RMSE).
+"""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from phri_cli.main import phri
+from phri_spring.io.config import load_config
+from phri_spring.physics import fe_tissue
+from phri_spring.physics.coupled import build_coupled_model
+from phri_spring.physics.solver import solve
+from phri_spring.workflows.common import geometry_from_config, model_from_config
+from phri_spring.workflows.stiffness import interface_stiffness_report
+
+from conftest import HARMONY_CONFIG
+from test_coupled import _kernel_K
+
+
+def run(*args):
+    return CliRunner().invoke(phri, [str(a) for a in args])
+
+
+def err_of(res) -> str:
+    try:
+        return res.stderr
+    except ValueError:  # pragma: no cover - click < 8.2
+        return res.output
+
+
+def one_line_error(res, code, *needles):
+    assert res.exit_code == code, (res.exit_code, err_of(res))
+    err = err_of(res).strip()
+    assert "\n" not in err and "Traceback" not in err and "internal error" not in err, err
+    for n in needles:
+        assert n in err, err
+
+
+@pytest.fixture(scope="module")
+def harmony():
+    return yaml.safe_load(open(HARMONY_CONFIG))
+
+
+@pytest.fixture
+def export(tmp_path, harmony):
+    """A config using a user's surface-stiffness export (a kernel-coupled 6n x 6n K)."""
+    cfg = load_config(HARMONY_CONFIG)
+    g = geometry_from_config(cfg)
+    npz = tmp_path / "my_fe.npz"
+    np.savez(npz, K=_kernel_K(g, dofs=6), labels=np.array(g.labels))
+    data = copy.deepcopy(harmony)
+    data["tissue"]["continuum"] = {"thickness": 0.02, "surface_stiffness": "my_fe.npz"}
+    path = tmp_path / "cfg.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_rigid_cuff_force_increments_are_the_fe_rigid_cuff_response():
+    g = geometry_from_config(load_config(HARMONY_CONFIG))
+    for t, nu in ((0.01, 0.30), (0.03, 0.45)):
+        ops = fe_tissue.condensed_surface_operators(g, t, 1e5, nu, level=1)
+        model = build_coupled_model(g, ops.K, np.inf, poisson_ratio=nu, strap_tension=3000.0,
+                                    normal_output=ops.N)
+        W = np.vstack([np.zeros(6), np.diag([1.0, 1.0, 1.0, 0.05, 0.05, 0.05])])
+        sol = solve(model, W)
+        assert sol.converged.all() and sol.contact.all()
+        for k in range(6):
+            ref = fe_tissue.rigid_cuff_patch_forces(ops.K, g, W[k + 1], ops.N)
+            np.testing.assert_allclose(sol.forces[k + 1] - sol.forces[0], ref, rtol=0,
+                                       atol=1e-9 * np.abs(ref).max())
+
+
+def test_simulate_coupled_with_an_export_and_shear_columns(export, tmp_path):
+    out = tmp_path / "forces.csv"
+    res = run("simulate", export, "examples/wrench_log.csv", "-o", out, "--arm", "coupled",
+              "--shear", "--decimals", "-1")
+    assert res.exit_code == 0, err_of(res)
+    table = pd.read_csv(out)
+    assert table["converged"].all()
+    assert "coupled arm" in err_of(res)
+    cols = [c for c in table.columns if "_shear_" in c]
+    assert cols[:2] == ["A0_shear_axial_N", "A0_shear_circumferential_N"] and len(cols) == 42
+    # the same numbers as the library
+    cfg = load_config(export)
+    model = model_from_config(cfg, "coupled")
+    from phri_spring.io.logs import read_wrench_log
+    from phri_spring.workflows.simulate import simulate
+
+    t, w = read_wrench_log("examples/wrench_log.csv")
+    lib = simulate(cfg, w, time=t, arm="coupled", model=model, shear=True)
+    np.testing.assert_allclose(table.loc[:, "A0":"C6"].to_numpy(), lib.forces, rtol=0,
+                               atol=1e-12)
+    np.testing.assert_allclose(table["C3_shear_axial_N"], lib.extras["C3_shear_axial_N"],
+                               rtol=0, atol=1e-12)
+
+
+def test_compare_three_arms_and_stiffness(export, tmp_path):
+    res = run("compare", export, "examples/experiment/manifest.yaml", "-o", tmp_path / "cmp",
+              "--arms", "rigid,compliant,coupled", "--no-figures", "-q")
+    assert res.exit_code == 0, err_of(res)
+    rmse = pd.read_csv(tmp_path / "cmp" / "rmse.csv")
+    assert set(rmse["arm"]) == {"rigid", "compliant", "coupled"}
+    rep = interface_stiffness_report(load_config(export), "coupled")
+    K = np.asarray(rep.K)
+    np.testing.assert_allclose(K, K.T, rtol=0, atol=1e-9 * np.abs(K).max())
+    res = run("stiffness", export, "--arm", "coupled", "--json")
+    assert res.exit_code == 0, err_of(res)
+
+
+def test_builtin_fe_through_the_cli(tmp_path, harmony, monkeypatch):
+    monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
+    data = copy.deepcopy(harmony)
+    data["tissue"]["continuum"] = {"thickness": 0.015, "young_modulus": 8.0e4}
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    res = run("simulate", cfg, "examples/wrench_log.csv", "-o", tmp_path / "f.parquet",
+              "--arm", "coupled")
+    assert res.exit_code == 0, err_of(res)
+    assert list((tmp_path / "cache").glob("*.npz"))          # built once, cached
+    assert pd.read_parquet(tmp_path / "f.parquet")["converged"].all()
+
+
+@pytest.mark.parametrize("edit, code, needles", [
+    (lambda t: t.pop("continuum"), 1, ["tissue.continuum", "thickness"]),
+    (lambda t: t["continuum"].update(thickness=0.045), 1, ["tissue.continuum.thickness",
+                                                           "radius"]),
+    (lambda t: t["continuum"].update(thickness=-0.01), 1, ["tissue.continuum.thickness"]),
+    (lambda t: t["continuum"].update(thickness=0.0), 1, ["tissue.continuum.thickness"]),
+    (lambda t: t["continuum"].update(young_modulus=0.0), 1, ["tissue.continuum.young_modulus"]),
+    (lambda t: t["continuum"].update(young_modulus=-3e4), 1,
+     ["tissue.continuum.young_modulus"]),
+    (lambda t: t.update(poisson_ratio=0.5), 1, ["tissue.poisson_ratio", "0.5"]),
+    (lambda t: t.update(poisson_ratio=0.6), 1, ["tissue.poisson_ratio"]),
+    (lambda t: t["continuum"].update(tickness=1), 1, ["tickness", "did you mean 'thickness'"]),
+])
+def test_bad_continuum_config(tmp_path, harmony, edit, code, needles):
+    data = copy.deepcopy(harmony)
+    data["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": 5e4}
+    edit(data["tissue"])
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    out = tmp_path / "forces.csv"
+    res = run("simulate", cfg, "examples/wrench_log.csv", "-o", out, "--arm", "coupled")
+    one_line_error(res, code, "cfg.yaml", *needles)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cfg.yaml"]
+
+
+@pytest.mark.parametrize("make, needles", [
+    (lambda g: dict(K=-np.eye(6 * g.n), labels=np.array(g.labels)), ["positive definite"]),
+    (lambda g: dict(K=np.triu(np.ones((3 * g.n,) * 2)) + 3 * g.n * np.eye(3 * g.n),
+                    labels=np.array(g.labels)), ["symmetric"]),
+    (lambda g: dict(K=np.eye(5), labels=np.array(g.labels)), ["shape"]),
+    (lambda g: dict(K=np.eye(3 * g.n), labels=np.array(g.labels[::-1])), ["labels"]),
+])
+def test_bad_surface_stiffness_file(tmp_path, harmony, make, needles):
+    g = geometry_from_config(load_config(HARMONY_CONFIG))
+    np.savez(tmp_path / "k.npz", **make(g))
+    data = copy.deepcopy(harmony)
+    data["tissue"]["continuum"] = {"thickness": 0.02, "surface_stiffness": "k.npz"}
+    (tmp_path / "cfg.yaml").write_text(yaml.safe_dump(data))
+    before = (tmp_path / "k.npz").read_bytes()
+    res = run("simulate", tmp_path / "cfg.yaml", "examples/wrench_log.csv", "-o",
+              tmp_path / "f.csv", "--arm", "coupled")
+    one_line_error(res, 1, "k.npz", *needles)
+    assert not (tmp_path / "f.csv").exists()
+    assert (tmp_path / "k.npz").read_bytes() == before
+
+
+def test_missing_fe_extra_names_it(tmp_path, harmony, monkeypatch):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_skfem(name, *args, **kwargs):
+        if name == "skfem" or name.startswith("skfem."):
+            raise ImportError("No module named 'skfem'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_skfem)
+    monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
+    data = copy.deepcopy(harmony)
+    data["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": 5e4}
+    (tmp_path / "cfg.yaml").write_text(yaml.safe_dump(data))
+    res = run("simulate", tmp_path / "cfg.yaml", "examples/wrench_log.csv", "-o",
+              tmp_path / "f.csv", "--arm", "coupled")
+    one_line_error(res, 2, "pip install -e .[fe]")
+    assert not (tmp_path / "f.csv").exists()
