@@ -210,6 +210,10 @@ def _coupled_shear(self, u, contact) -> np.ndarray:
 CoupledModel.shear_components = _coupled_shear
 
 
+#: rows per chunk when per-row set maps are gathered (bounds the (rows, 6, n) temporary)
+_GATHER_ROWS = 4096
+
+
 def _groups(keys: np.ndarray):
     """(key, row indices) for every distinct key, in order of first appearance."""
     if len(keys) and np.all(keys == keys[0]):
@@ -278,41 +282,48 @@ class CoupledSystem(ContactSystem):
             f0 = (NC @ Gd) * S_row
         return (Mt, c, Qt, q0, D, GT, Gd, np.abs(Qt), np.abs(q0), Ft, f0)
 
-    def solve_sets(self, keys, S, r):
-        m = len(keys)
+    def _affine(self, x, S, keys, slot: int, out=None, add_first: bool = False):
+        """x @ A_S + b_S for every row, with (A_S, b_S) = the set data at ``slot``, ``slot+1``
+        of each row's contact set (``add_first``: (x + b_S) @ A_S instead).
+
+        Rows sharing the block's one set take one product; otherwise the maps of the sets
+        met are gathered per row and applied as a stack of small products, in chunks.
+        """
+        m = len(x)
         if m == 0:
-            return np.empty((0, 6))
+            return np.empty((0, 0)) if out is None else out
         if m == 1 or np.all(keys == keys[0]):
-            Mt, c = self.factors(keys[0], S[0])[:2]
-            return (r + c) @ Mt
-        out = np.empty((m, 6))
-        for key, idx in _groups(keys):
-            Mt, c = self.factors(key, S[idx[0]])[:2]
-            out[idx] = (r[idx] + c) @ Mt
-        return out
+            A, b = self.factors(keys[0], S[0])[slot:slot + 2]
+            if add_first:
+                return np.matmul(x + b, A, out=out)
+            res = np.matmul(x, A, out=out)
+            res += b
+            return res
+        uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        data = [self.factors(k, S[f])[slot:slot + 2] for k, f in zip(uniq, first)]
+        A = np.stack([d[0] for d in data])
+        b = np.stack([d[1] for d in data])
+        res = np.empty((m, A.shape[2])) if out is None else out
+        for s0 in range(0, m, _GATHER_ROWS):
+            sl = slice(s0, min(m, s0 + _GATHER_ROWS))
+            g = inv[sl]
+            if add_first:
+                res[sl] = np.matmul((x[sl] + b[g])[:, None, :], A[g])[:, 0, :]
+            else:
+                res[sl] = np.matmul(x[sl, None, :], A[g])[:, 0, :] + b[g]
+        return res
+
+    def solve_sets(self, keys, S, r):
+        return self._affine(r, S, keys, 0, add_first=True)
 
     def indicator(self, u, S, keys=None, out=None):
-        m = len(u)
         if keys is None:
             keys = set_keys(S)
-        q = np.empty((m, self.n)) if out is None else out
-        if m == 1 or np.all(keys == keys[0]):
-            Qt, q0 = self.factors(keys[0], S[0])[2:4]
-            np.matmul(u, Qt, out=q)
-            q += q0
-            return q
-        for key, idx in _groups(keys):
-            Qt, q0 = self.factors(key, S[idx[0]])[2:4]
-            q[idx] = u[idx] @ Qt + q0
-        return q
+        return self._affine(u, S, keys, 2, out=out)
 
     def consistent(self, S, q, u):
-        keys = set_keys(S)
-        tol = np.empty(q.shape)
-        au = np.abs(np.atleast_2d(u))
-        for key, idx in _groups(keys):
-            aQt, aq0 = self.factors(key, S[idx[0]])[7:9]
-            tol[idx] = SET_RTOL * (au[idx] @ aQt + aq0)
+        tol = self._affine(np.abs(np.atleast_2d(u)), S, set_keys(S), 7)
+        tol *= SET_RTOL
         wrong = (S & (q < -tol)) | (~S & (q > tol))
         return ~wrong.any(axis=-1)
 
@@ -326,12 +337,7 @@ class CoupledSystem(ContactSystem):
         if self.model.N_out is None:
             return np.maximum(q, 0.0, out=out)
         S = q > 0
-        keys = set_keys(S)
-        f = np.empty(q.shape)
-        u = np.atleast_2d(u)
-        for key, idx in _groups(keys):
-            Ft, f0 = self.factors(key, S[idx[0]])[9:11]
-            f[idx] = u[idx] @ Ft + f0
+        f = self._affine(np.atleast_2d(u), S, set_keys(S), 9)
         return np.maximum(f, 0.0, out=out)
 
     # ------------------------------------------------------------------ safeguard
