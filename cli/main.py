@@ -59,12 +59,14 @@ _COMMANDS = {
     "simulate": ("phri_cli.simulate", "simulate"),
     "fit-stiffness": ("phri_cli.fit_stiffness", "fit_stiffness"),
     "compare": ("phri_cli.compare", "compare"),
+    "design": ("phri_cli.design", "design"),
 }
 
 _SHORT_HELP = {
     "simulate": "Wrench log -> contact force of every cuff element [N].",
     "fit-stiffness": "Indenter recordings -> tissue stiffness map [N/m].",
     "compare": "RMSE of rigid- and compliant-arm predictions against a sensorized cuff.",
+    "design": "Parameter study of a cuff over a load set -> Pareto designs, best config.",
 }
 
 
