@@ -162,3 +162,44 @@ def test_study_uncertainty_and_sobol(tmp_path):
     assert pk.loc["strap.tension", "ST"] == pk["ST"].max()
     assert "Uncertainty of the best design" in (out / "report.md").read_text()
     assert r.best >= 0
+
+
+def test_compare_bands(tmp_path):
+    repo = Path(__file__).resolve().parent.parent
+    cfg = repo / "configs" / "harmony_upper_arm.yaml"
+    man = repo / "examples" / "experiment" / "manifest.yaml"
+    out = tmp_path / "cmp"
+    res = CliRunner().invoke(phri, ["compare", str(cfg), str(man), "-o", str(out), "-q",
+                                    "--uncertainty", "3", "--uncertainty-sd",
+                                    "tissue=0,tension=0"])
+    assert res.exit_code == 0, res.output
+    b = pd.read_csv(out / "bands.csv")
+    # no scatter: every draw is the config itself, so the band is the compare prediction
+    for col in ("sim_p5_N", "sim_p50_N", "sim_p95_N"):
+        np.testing.assert_allclose(b[col], b["simulated_N"], atol=2e-6, rtol=0)
+    assert (out / "bands").is_dir() and any((out / "bands").glob("*.png"))
+    out2 = tmp_path / "cmp2"
+    res = CliRunner().invoke(phri, ["compare", str(cfg), str(man), "-o", str(out2), "-q",
+                                    "--no-figures", "--arms", "compliant", "--uncertainty",
+                                    "8", "--uncertainty-sd",
+                                    "tissue=0.06,tension=0.5"])
+    assert res.exit_code == 0, res.output
+    b = pd.read_csv(out2 / "bands.csv")
+    assert np.all(b["sim_p5_N"] <= b["sim_p50_N"] + 1e-9)
+    assert np.all(b["sim_p50_N"] <= b["sim_p95_N"] + 1e-9)
+    # zeroed compliant-arm loads depend on the tissue stiffness: a spread where loaded (the
+    # rigid arm's would not: cuff springs only, and zeroing removes the preload)
+    loaded = b[b["simulated_N"].abs() > 0.5]
+    assert len(loaded) and np.all(loaded["sim_p95_N"] - loaded["sim_p5_N"] > 0)
+
+
+def test_simulate_uncertainty_needs_absolute_forces(tmp_path):
+    log = tmp_path / "log.csv"
+    pd.DataFrame(np.column_stack([[0.0, 0.01], W_LC]),
+                 columns=["time", "Fx", "Fy", "Fz", "Mx", "My", "Mz"]).to_csv(log, index=False)
+    res = CliRunner().invoke(phri, ["simulate", str(Path(__file__).parent.parent / "configs" /
+                                                    "harmony_upper_arm.yaml"), str(log), "-o",
+                                    str(tmp_path / "o.csv"), "--uncertainty", "5",
+                                    "--baseline", "zero"])
+    assert res.exit_code == 2 and one_line(res.stderr) and "--baseline" in res.stderr
+    assert not (tmp_path / "o.csv").exists()

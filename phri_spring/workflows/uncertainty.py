@@ -69,14 +69,17 @@ class UncertainInputs:
         return np.array([self.force_sd_N] * 3 + [self.moment_sd_Nm] * 3)
 
 
-def _csv_std(cfg: Config) -> Optional[np.ndarray]:
+def _csv_std(cfg: Config, csv_path=None) -> Optional[np.ndarray]:
     import pandas as pd
 
-    raw = cfg.raw.get("tissue", {}).get("stiffness") if isinstance(cfg.raw, dict) else None
-    if not isinstance(raw, str):
-        return None
-    base = cfg.path.parent if cfg.path is not None else Path(".")
-    path = Path(raw) if Path(raw).is_absolute() else base / raw
+    if csv_path is not None:
+        path = Path(csv_path)
+    else:
+        raw = cfg.raw.get("tissue", {}).get("stiffness") if isinstance(cfg.raw, dict) else None
+        if not isinstance(raw, str):
+            return None
+        base = cfg.path.parent if cfg.path is not None else Path(".")
+        path = Path(raw) if Path(raw).is_absolute() else base / raw
     df = pd.read_csv(path, comment="#")
     if "std_N_per_m" not in df.columns:
         raise DataError("missing column 'std_N_per_m'; expected a CSV written by 'phri "
@@ -91,7 +94,7 @@ def _csv_std(cfg: Config) -> Optional[np.ndarray]:
 
 def uncertain_inputs(cfg: Config, *, tissue_sd: Union[str, float] = "from_csv",
                      tension_sd_N: float = 0.0, force_sd_N: float = 0.0,
-                     moment_sd_Nm: float = 0.0) -> UncertainInputs:
+                     moment_sd_Nm: float = 0.0, tissue_csv=None) -> UncertainInputs:
     """The SDs of a config's uncertain inputs.
 
     Parameters
@@ -106,7 +109,7 @@ def uncertain_inputs(cfg: Config, *, tissue_sd: Union[str, float] = "from_csv",
         if not (math.isfinite(v) and v >= 0):
             raise UsageError(f"expected a finite value >= 0, got {v!r}", key=name)
     if isinstance(tissue_sd, str):
-        sd = _csv_std(cfg)
+        sd = _csv_std(cfg, tissue_csv)
         sd = np.zeros(cfg.n_elements) if sd is None else sd
     else:
         if not (math.isfinite(tissue_sd) and tissue_sd >= 0):
@@ -447,3 +450,91 @@ def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed, quiet,
          f"5/50/95th percentiles over {res.draws} Monte Carlo draws, seed {seed}"
          + (f"; {res.not_converged} draw-samples did not converge and were left out"
             if res.not_converged else "") + ")", quiet)
+
+
+# --------------------------------------------------------------------------- compare bands
+def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None):
+    """Monte Carlo bands of a ``phri compare`` result's simulated (zeroed) loads.
+
+    For every arm model, the config's uncertain inputs (tissue stiffness, strap
+    tension; see :func:`parse_sd`) are drawn ``draws`` times and every trial's
+    condition-mean wrenches solved again; each draw's loads are zeroed on its own
+    baseline condition, as :func:`phri_spring.workflows.compare.compare` does.
+    Load-cell noise is left out: the wrenches are means over a steady window.
+
+    Parameters
+    ----------
+    result : CompareResult
+    draws, seed
+    sd : str, optional
+        ``tissue=from_csv|FRACTION,tension=N`` (force and moment are ignored).
+
+    Returns
+    -------
+    bands : dict
+        (trial index, arm) -> ndarray (3, c, n) of the 5/50/95th percentiles [N].
+    table : pandas.DataFrame
+        experiment, direction, trial, condition, arm, location, measured_N,
+        simulated_N, sim_p5_N, sim_p50_N, sim_p95_N.
+    """
+    import pandas as pd
+
+    if int(draws) < 2:
+        raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
+    cfg = result.config
+    kw = parse_sd(sd)
+    kw["force_sd_N"] = kw["moment_sd_Nm"] = 0.0
+    inputs = uncertain_inputs(cfg, tissue_csv=result.tissue_stiffness_file, **kw)
+    cfgs = _draw_configs(cfg, inputs, int(draws), seed)
+    W = np.vstack([tc.cuff_wrench for tc in result.trials])
+    bounds = np.cumsum([0] + [len(tc.conditions) for tc in result.trials])
+    bands, rows = {}, []
+    q = np.array(PERCENTILES)
+    for arm in result.arms:
+        F = np.empty((len(cfgs), len(W), cfg.n_elements))
+        for d, c in enumerate(cfgs):
+            F[d] = solve(model_from_config(c, arm), W, max_iterations=cfg.max_iterations).forces
+        for t, tc in enumerate(result.trials):
+            Ft = F[:, bounds[t]:bounds[t + 1]]
+            Z = Ft - Ft[:, tc.baseline_index][:, None, :]
+            P = np.nanpercentile(Z, q, axis=0) if np.isnan(Z).any() else np.percentile(Z, q,
+                                                                                       axis=0)
+            bands[(t, arm)] = P
+            for i, cond in enumerate(tc.conditions):
+                for j, lab in enumerate(cfg.labels):
+                    rows.append({"experiment": tc.spec.experiment,
+                                 "direction": tc.spec.direction, "trial": tc.spec.trial,
+                                 "condition": cond, "arm": arm, "location": lab,
+                                 "measured_N": tc.measured[i, j],
+                                 "simulated_N": tc.simulated[arm][i, j],
+                                 "sim_p5_N": P[0, i, j], "sim_p50_N": P[1, i, j],
+                                 "sim_p95_N": P[2, i, j]})
+    return bands, pd.DataFrame(rows)
+
+
+def write_compare_bands(result, bands, table, outdir, *, figures: bool = True,
+                        dpi: int = 150) -> list:
+    """Write ``bands.csv`` and ``bands/<trial>.png`` into a compare output folder (atomically)."""
+    from ..io.atomic import atomic_file
+    from ..reports.compare_figures import save_figure
+    from ..reports.uncertainty_figures import bands_figure
+
+    outdir = Path(outdir)
+    files = []
+    with atomic_file(outdir / "bands.csv") as tmp:
+        table.to_csv(tmp, index=False, float_format="%.6f")
+    files.append(outdir / "bands.csv")
+    if figures:
+        (outdir / "bands").mkdir(exist_ok=True)
+        for t, tc in enumerate(result.trials):
+            fig = bands_figure(tc.measured, {arm: bands[(t, arm)] for arm in result.arms},
+                               conditions=tc.conditions, labels=result.labels,
+                               baseline_index=tc.baseline_index,
+                               title=f"{tc.spec.experiment} {tc.spec.direction} trial "
+                                     f"{tc.spec.trial}: zeroed loads, model 5-95 % band")
+            name = f"{tc.spec.experiment}_{tc.spec.direction}_{tc.spec.trial}".replace(" ", "_")
+            path = outdir / "bands" / f"{name}.png"
+            with atomic_file(path) as tmp:
+                save_figure(fig, tmp, dpi=dpi)
+            files.append(path)
+    return files
