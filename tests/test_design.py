@@ -352,3 +352,19 @@ def test_interrupted_study_resumes_from_written_batches(tmp_path):
     assert again.resumed_batches == len(written) and again.total_batches == 6
     assert notes and notes[0].startswith(f"resuming: {len(written)} of 6 batches")
     pd.testing.assert_frame_equal(again.table, full, check_exact=True)
+
+
+def test_new_constraints_reuse_the_finished_batches(tmp_path):
+    folder = tmp_path / "s"
+    path = make_study(folder, n=60)
+    first = run_study(path, folder / "out", workers=1, figures=False)
+    path2 = make_study(folder, n=60, constraints={"stiffness_translational_N_per_mm": ">= 1e9"})
+    notes = []
+    again = run_study(path2, folder / "out", workers=1, figures=False, message=notes.append)
+    assert again.resumed_batches == again.total_batches and notes
+    assert not again.table["feasible"].any() and not again.table["pareto"].any()
+    # no best design now: the earlier ranking's best.yaml is gone, report.md says why
+    assert again.best == -1 and not (folder / "out" / "best.yaml").exists()
+    assert "No design is feasible" in (folder / "out" / "report.md").read_text()
+    objectives = [c for c in first.table.columns if c not in ("feasible", "pareto")]
+    pd.testing.assert_frame_equal(again.table[objectives], first.table[objectives])

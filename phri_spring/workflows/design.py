@@ -524,8 +524,11 @@ def _batch_size(study: Study, n_designs: int) -> int:
 
 def _fingerprint(study: Study, base: Config, values: np.ndarray, loads: LoadSet, bs: int) -> str:
     h = hashlib.sha256()
-    h.update(json.dumps({"study": study.raw, "config": base.raw, "arm": study.arm,
-                         "batch": bs}, sort_keys=True, default=str).encode())
+    # only what the batches depend on: objectives, constraints, best and the uncertainty
+    # section can change and the finished batches still count
+    h.update(json.dumps({"config": base.raw, "arm": study.arm, "batch": bs,
+                         "parameters": [p.path + ":" + p.kind for p in study.parameters]},
+                        sort_keys=True, default=str).encode())
     h.update(np.ascontiguousarray(values).tobytes())
     for f in base.stiffness_files:
         try:
@@ -611,9 +614,9 @@ def run_study(study_path, outdir, *, scheduler: Optional[str] = None,
         except (OSError, ValueError):
             old = {}
         if old.get("fingerprint") != fp:
-            raise UsageError(f"{str(outdir)!r} holds the results of another study (or of this "
-                             "study before its file, config or loads changed); expected a new "
-                             "folder, or the same study to resume", key="-o/--output")
+            raise UsageError(f"{str(outdir)!r} holds the results of another study (other "
+                             "designs, arm, config or loads); expected a new folder, or the "
+                             "same study to resume", key="-o/--output")
         for f in sorted(state.glob("batch_*.npz")):
             data = _load_npz(f)
             if data is not None:
@@ -624,6 +627,10 @@ def run_study(study_path, outdir, *, scheduler: Optional[str] = None,
 
     batches = [(b, [(i, configs[i]) for i in range(s, min(s + bs, len(configs)))])
                for b, s in enumerate(range(0, len(configs), bs))]
+    for b, payload in batches:   # a batch file that does not hold its designs is recomputed
+        if b in done and not np.array_equal(done[b].get("design"), [i for i, _ in payload]):
+            del done[b]
+    done = {b: d for b, d in done.items() if b < len(batches)}
     todo = [(b, payload) for b, payload in batches if b not in done]
     n_total = len(configs)
 
@@ -842,6 +849,9 @@ def write_outputs(result: StudyResult, *, figures: bool = True, dpi: int = 150) 
     with atomic_file(out / "designs.parquet") as tmp:
         result.table.to_parquet(tmp, index=False)
     files.append(out / "designs.parquet")
+    for name in ("uncertainty_objectives.csv", "uncertainty_patches.csv", "sobol.csv"):
+        if result.uncertainty is None or name not in result.uncertainty["tables"]:
+            (out / name).unlink(missing_ok=True)    # from an earlier run of this study
     if result.uncertainty is not None:
         for name, df in result.uncertainty["tables"].items():
             with atomic_file(out / name) as tmp:
@@ -856,6 +866,9 @@ def write_outputs(result: StudyResult, *, figures: bool = True, dpi: int = 150) 
             tmp.write_text(head + yaml.safe_dump(raw, sort_keys=False, allow_unicode=True),
                            encoding="utf-8")
         files.append(out / "best.yaml")
+    else:   # a best design of an earlier ranking of this study would contradict report.md
+        (out / "best.yaml").unlink(missing_ok=True)
+        (out / "best_peak_pressure.png").unlink(missing_ok=True)
     figs = []
     if figures:
         from ..reports.compare_figures import save_figure
