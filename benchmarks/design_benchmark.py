@@ -143,6 +143,7 @@ def main():
     args = ap.parse_args()
     levels = 10 if not args.quick else 5
     repeats = 1 if args.quick else args.repeats
+    load_before = os.getloadavg()
     tmp = Path(tempfile.mkdtemp(prefix="phri-design-bench-"))
     try:
         study = make_inputs(tmp, 60_000, levels)
@@ -169,6 +170,8 @@ def main():
     lines = [
         f"designs: {n_designs}, samples: 60,000, repeats: {repeats}, machine: "
         f"{os.cpu_count()} cores, {platform.python_version()}",
+        f"machine load (1-minute load average, other jobs included): {load_before[0]:.1f} "
+        f"at the start, {os.getloadavg()[0]:.1f} at the end",
         f"phri design (CLI, default pool, figures): {', '.join(f'{c:.1f}' for c in cli)} s "
         f"(median {med(cli):.1f} s; target <= 60 s)",
         f"1 worker: wall {w1:.1f} s (batch phase {m1:.1f} s); runs "

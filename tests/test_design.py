@@ -276,13 +276,22 @@ BAD = [
 ]
 
 
-@pytest.mark.parametrize("over,key,fragment", BAD, ids=[b[1] for b in BAD])
-def test_bad_study_one_line_nothing_written_resumable_untouched(tmp_path, study_run, over, key,
-                                                                fragment):
-    folder = tmp_path / "s"
+@pytest.fixture(scope="module")
+def finished_small_study(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("small") / "s"
     good = make_study(folder, n=60)
+    assert invoke(good, "-o", folder / "out", "--no-figures", "--workers", "1").exit_code == 0
+    return folder
+
+
+@pytest.mark.parametrize("over,key,fragment", BAD, ids=[b[1] for b in BAD])
+def test_bad_study_one_line_nothing_written_resumable_untouched(tmp_path, finished_small_study,
+                                                                over, key, fragment):
+    import shutil
+
+    folder = tmp_path / "s"
+    shutil.copytree(finished_small_study, folder)     # a finished, resumable study
     out = folder / "out"
-    assert invoke(good, "-o", out, "--no-figures", "--workers", "1").exit_code == 0
     before = snapshot(folder)
     bad = make_study(tmp_path / "bad", n=60, extra=over)
     bad.replace(folder / "bad.yaml")
