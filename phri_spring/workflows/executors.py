@@ -90,7 +90,7 @@ def _import_distributed():
 
 @contextmanager
 def batch_executor(scheduler: Optional[str] = None, workers: Optional[int] = None,
-                   connect_timeout: float = 10.0) -> Iterator[Callable]:
+                   connect_timeout: float = 5.0) -> Iterator[Callable]:
     """Open an executor; yield ``run(func, batches, shared, on_result=None) -> dict``.
 
     Parameters
