@@ -22,9 +22,16 @@ from ._common import info, progress_enabled
               help="Write the tables and report.md only (no PNG figures; faster).")
 @click.option("--dpi", type=click.IntRange(min=50, max=600), default=170, show_default=True,
               help="Resolution of the PNG figures [dots per inch].")
+@click.option("--uncertainty", type=click.IntRange(min=2), default=None, metavar="N",
+              help="Also draw the models' 5-95 % bands from N Monte Carlo draws of the tissue "
+                   "stiffness and strap tension (bands.csv, bands/*.png; docs/design.md).")
+@click.option("--uncertainty-sd", default=None, metavar="LIST",
+              help="SDs of the draws: tissue=from_csv|FRACTION, tension=N.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the draws.")
 @click.option("-q", "--quiet", is_flag=True,
               help="Print nothing on success (the summary is in OUTDIR/summary.csv).")
-def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, quiet):
+def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, quiet,
+            uncertainty=None, uncertainty_sd=None, seed=0):
     """Compare predicted and measured cuff loads [N] for every trial and condition.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). MANIFEST is
@@ -61,11 +68,16 @@ def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, q
     check_output_path(output, [config, manifest, tissue_stiffness], option="-o/--output",
                       directory=True)
     result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness)
+    if uncertainty is not None:  # computed before anything is written: a failure leaves nothing
+        from phri_spring.workflows.uncertainty import compare_bands, write_compare_bands
+        bands = compare_bands(result, draws=uncertainty, seed=seed, sd=uncertainty_sd)
     if not no_figures and progress_enabled(None):  # progress: only on a terminal
         n_fig = 1 + sum(len(tc.conditions) for tc in result.trials)   # bars, wrench, heat maps
         info(f"compare: {len(result.trials)} trials analysed; writing {n_fig} figures ...",
              quiet)
     out = write_compare(result, output, figures=not no_figures, dpi=dpi)
+    if uncertainty is not None:
+        write_compare_bands(result, *bands, output, figures=not no_figures, dpi=dpi)
     if not quiet:
         click.echo(summary_markdown(result))
     n_heat = sum(1 for f in out.files if f.parent.name == "heatmaps")

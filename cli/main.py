@@ -60,6 +60,7 @@ _COMMANDS = {
     "fit-stiffness": ("phri_cli.fit_stiffness", "fit_stiffness"),
     "compare": ("phri_cli.compare", "compare"),
     "stiffness": ("phri_cli.stiffness", "stiffness"),
+    "design": ("phri_cli.design", "design"),
 }
 
 _SHORT_HELP = {
@@ -67,6 +68,7 @@ _SHORT_HELP = {
     "fit-stiffness": "Indenter recordings -> tissue stiffness map [N/m].",
     "compare": "RMSE of rigid- and compliant-arm predictions against a sensorized cuff.",
     "stiffness": "Interface stiffness of the cuff on the arm at the load cell [N/mm, N*m/deg].",
+    "design": "Parameter study of a cuff over a load set -> Pareto designs, best config.",
 }
 
 

@@ -36,9 +36,17 @@ from ._common import StderrProgress, info, progress_enabled, warn
               help="Samples per chunk (bounds memory on long logs).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress on stderr (default: only when stderr is a terminal).")
+@click.option("--uncertainty", type=click.IntRange(min=2), default=None, metavar="N",
+              help="Monte Carlo with N draws: OUT gets the 5/50/95th percentiles of each "
+                   "element's force instead (docs/design.md).")
+@click.option("--uncertainty-sd", default=None, metavar="LIST",
+              help="SDs of the draws: tissue=from_csv|FRACTION, tension=N, force=N, "
+                   "moment=N*m (default tissue=from_csv, the others 0).")
+@click.option("--seed", type=int, default=0, show_default=True,
+              help="Seed of the Monte Carlo draws.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
 def simulate(config, log, output, arm, shear, baseline, columns, decimals, chunk_rows, progress,
-             quiet):
+             quiet, uncertainty=None, uncertainty_sd=None, seed=0):
     """Predict the normal force [N] on every cuff element for each sample of LOG.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
@@ -61,6 +69,10 @@ def simulate(config, log, output, arm, shear, baseline, columns, decimals, chunk
 
     colmap = parse_column_map(columns)
     base = parse_baseline(baseline)
+    if uncertainty is not None:
+        from phri_spring.workflows.uncertainty import run_cli
+        return run_cli(config, log, output, arm, str(base), colmap, uncertainty, uncertainty_sd,
+                       seed, quiet, info)
     bar = StderrProgress("simulate", progress_enabled(progress))
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,

@@ -1,0 +1,540 @@
+"""Uncertainty of the predictions: Monte Carlo over what was measured with scatter, Sobol indices.
+
+Uncertain inputs (independent Gaussians):
+
+- the tissue stiffness of every location: mean = the config's value, SD from
+  the ``std_N_per_m`` column of the ``phri fit-stiffness`` CSV the config's
+  ``tissue.stiffness`` names (``from_csv``), or a relative SD of the config's
+  values (e.g. 0.06 for the paper's 6 % scatter of the indenter stiffness);
+- the strap tension: mean = ``strap.tension``, SD in N (set by hand);
+- load-cell noise: white Gaussian noise added to every sample and channel of
+  the log, SD in N (forces) and N*m (moments), in the log's units.
+
+:func:`monte_carlo` draws N sets of inputs (fixed seed), solves the whole log
+for each, and returns the 5th, 50th and 95th percentiles over the draws of
+every element's force and of the per-sample peak pressure / pain threshold.
+:func:`study_uncertainty` does the same for a design study's objectives at
+its best design, and, with SALib, the first-order and total Sobol indices of
+each objective to each scalar input (per-location tissue stiffness, strap
+tension): which measurement is worth repeating. Load-cell noise is random per
+sample, not one scalar, so it is in the Monte Carlo but not in the indices.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional, Union
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+from ..io.config import Config
+from ..physics.solver import solve
+from .common import cuff_wrench, model_from_config
+
+__all__ = ["UncertainInputs", "uncertain_inputs", "monte_carlo", "MonteCarloResult",
+           "study_uncertainty", "PERCENTILES", "write_monte_carlo"]
+
+#: percentiles reported [%]
+PERCENTILES = (5.0, 50.0, 95.0)
+#: (draws x samples x elements) values held at once
+_CHUNK_ENTRIES = 1 << 23
+
+
+@dataclass(frozen=True)
+class UncertainInputs:
+    """SDs of the uncertain inputs of one config.
+
+    Attributes
+    ----------
+    tissue_sd : ndarray, shape (n,)
+        SD of each location's tissue stiffness [N/m], in the config's basis.
+    tension_sd_N : float
+    force_sd_N : float
+        Load-cell force noise SD [log force unit].
+    moment_sd_Nm : float
+        Load-cell moment noise SD [log moment unit].
+    """
+
+    tissue_sd: np.ndarray
+    tension_sd_N: float = 0.0
+    force_sd_N: float = 0.0
+    moment_sd_Nm: float = 0.0
+
+    @property
+    def noise_sd(self) -> np.ndarray:
+        return np.array([self.force_sd_N] * 3 + [self.moment_sd_Nm] * 3)
+
+
+def _csv_std(cfg: Config, csv_path=None) -> Optional[np.ndarray]:
+    import pandas as pd
+
+    if csv_path is not None:
+        path = Path(csv_path)
+    else:
+        raw = cfg.raw.get("tissue", {}).get("stiffness") if isinstance(cfg.raw, dict) else None
+        if not isinstance(raw, str):
+            return None
+        base = cfg.path.parent if cfg.path is not None else Path(".")
+        path = Path(raw) if Path(raw).is_absolute() else base / raw
+    df = pd.read_csv(path, comment="#")
+    if "std_N_per_m" not in df.columns:
+        raise DataError("missing column 'std_N_per_m'; expected a CSV written by 'phri "
+                        "fit-stiffness' (or give the SD as a fraction)", file=path,
+                        key="std_N_per_m")
+    sd = pd.to_numeric(df["std_N_per_m"], errors="coerce").astype(float)
+    sd = dict(zip(df["location"].astype(str).str.strip(), sd))
+    out = np.array([sd.get(lab, np.nan) for lab in cfg.labels], dtype=float)
+    bad = ~np.isfinite(out) | (out < 0)
+    return np.where(bad, 0.0, out)   # one trial only: no SD written, no scatter assumed
+
+
+def uncertain_inputs(cfg: Config, *, tissue_sd: Union[str, float] = "from_csv",
+                     tension_sd_N: float = 0.0, force_sd_N: float = 0.0,
+                     moment_sd_Nm: float = 0.0, tissue_csv=None) -> UncertainInputs:
+    """The SDs of a config's uncertain inputs.
+
+    Parameters
+    ----------
+    tissue_sd : 'from_csv' or float
+        ``from_csv``: the ``std_N_per_m`` column of the config's stiffness CSV
+        (zero when the config gives numbers, or a location has no SD); a float:
+        that fraction of each location's stiffness.
+    """
+    for name, v in (("strap tension SD", tension_sd_N), ("load-cell force SD", force_sd_N),
+                    ("load-cell moment SD", moment_sd_Nm)):
+        if not (math.isfinite(v) and v >= 0):
+            raise UsageError(f"expected a finite value >= 0, got {v!r}", key=name)
+    if isinstance(tissue_sd, str):
+        sd = _csv_std(cfg, tissue_csv)
+        sd = np.zeros(cfg.n_elements) if sd is None else sd
+    else:
+        if not (math.isfinite(tissue_sd) and tissue_sd >= 0):
+            raise UsageError(f"expected a relative SD >= 0, got {tissue_sd!r}",
+                             key="tissue stiffness SD")
+        sd = float(tissue_sd) * np.asarray(cfg.tissue_stiffness, dtype=float)
+    return UncertainInputs(sd, float(tension_sd_N), float(force_sd_N), float(moment_sd_Nm))
+
+
+def _draw_configs(cfg: Config, inputs: UncertainInputs, draws: int, seed: int) -> list:
+    rng = np.random.default_rng([int(seed), 0])
+    k = cfg.tissue_stiffness + inputs.tissue_sd * rng.standard_normal((draws, cfg.n_elements))
+    t = cfg.strap_tension + inputs.tension_sd_N * rng.standard_normal(draws)
+    if np.any(k <= 0):
+        raise DataError("a Monte Carlo draw gave a tissue stiffness <= 0; expected SDs well "
+                        "below the stiffness (the inputs are Gaussian)", key="tissue.stiffness")
+    if np.any(t < 0):
+        raise DataError("a Monte Carlo draw gave a strap tension < 0; expected an SD well below "
+                        "the tension", key="strap.tension")
+    return [dataclasses.replace(cfg, tissue_stiffness=k[d], strap_tension=float(t[d]))
+            for d in range(draws)]
+
+
+@dataclass
+class MonteCarloResult:
+    """Percentiles over the draws (q = :data:`PERCENTILES`).
+
+    Attributes
+    ----------
+    forces : ndarray, shape (3, m, n)
+        Percentiles of each element's normal force [N] at each sample.
+    pain_ratio : ndarray, shape (3, m)
+        Percentiles of the per-sample peak pressure / pain threshold [-].
+    draws : int
+    not_converged : int
+        (draw, sample) pairs the solver did not converge on (left out).
+    labels : tuple
+    """
+
+    forces: np.ndarray
+    pain_ratio: np.ndarray
+    draws: int
+    not_converged: int
+    labels: tuple
+
+
+def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str = "compliant",
+                inputs: Optional[UncertainInputs] = None) -> MonteCarloResult:
+    """Monte Carlo percentiles of the forces for every sample of a log.
+
+    Parameters
+    ----------
+    cfg : Config
+    wrench_lc : array_like, shape (m, 6)
+        Load-cell readings in the config's units.
+    draws : int
+        Monte Carlo draws N (>= 2).
+    seed : int
+        Results depend only on the seed and N (draw d's noise comes from its own
+        stream, chunk by chunk of samples of a fixed size).
+    arm : str
+    inputs : UncertainInputs, optional
+        Default: the tissue SD from the config's CSV, no other scatter.
+
+    Returns
+    -------
+    MonteCarloResult
+    """
+    if int(draws) < 2:
+        raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
+    draws = int(draws)
+    w = np.atleast_2d(np.asarray(wrench_lc, dtype=float))
+    inputs = uncertain_inputs(cfg) if inputs is None else inputs
+    cfgs = _draw_configs(cfg, inputs, draws, seed)
+    same_model = not (inputs.tissue_sd.any() or inputs.tension_sd_N > 0)
+    models = [model_from_config(cfgs[0], arm)] * draws if same_model else \
+        [model_from_config(c, arm) for c in cfgs]
+    noise_sd = inputs.noise_sd
+    m, n = len(w), cfg.n_elements
+    chunk = max(1, _CHUNK_ENTRIES // (draws * n))
+    q = np.array(PERCENTILES)
+    out_f = np.empty((3, m, n))
+    out_r = np.empty((3, m))
+    n_bad = 0
+    inv_area_kpa = 1.0 / (1000.0 * models[0].areas)
+    for c, s in enumerate(range(0, m, chunk)):
+        e = min(m, s + chunk)
+        F = np.empty((draws, e - s, n))
+        for d in range(draws):
+            wd = w[s:e]
+            if noise_sd.any():
+                rng = np.random.default_rng([int(seed), 1, d, c])
+                wd = wd + rng.standard_normal(wd.shape) * noise_sd
+            sol = solve(models[d], cuff_wrench(cfg, wd), max_iterations=cfg.max_iterations)
+            F[d] = sol.forces
+            n_bad += int((~sol.converged).sum())
+        thr = np.array([models[d].pain_threshold_kpa for d in range(draws)])[:, None]
+        R = (F * inv_area_kpa).max(axis=2) / thr
+        out_f[:, s:e] = np.nanpercentile(F, q, axis=0) if n_bad else np.percentile(F, q, axis=0)
+        out_r[:, s:e] = np.nanpercentile(R, q, axis=0) if n_bad else np.percentile(R, q, axis=0)
+    return MonteCarloResult(out_f, out_r, draws, n_bad, tuple(cfg.labels))
+
+
+def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
+    """Write the percentile table (CSV or Parquet by extension), atomically.
+
+    Columns: time [s]; for each element ``{label}_p5``, ``{label}_p50``,
+    ``{label}_p95`` [N]; ``peak_pressure_to_pain_threshold_p5/_p50/_p95`` [-].
+    """
+    import pandas as pd
+
+    from ..io.atomic import atomic_file
+    from ..io.logs import table_format
+
+    output = Path(output)
+    fmt = table_format(output, role="output", option="-o/--output")
+    data = {"time": np.asarray(time, dtype=float)}
+    tags = [f"p{q:g}" for q in PERCENTILES]
+    for j, lab in enumerate(result.labels):
+        for i, tag in enumerate(tags):
+            data[f"{lab}_{tag}"] = result.forces[i, :, j]
+    for i, tag in enumerate(tags):
+        data[f"peak_pressure_to_pain_threshold_{tag}"] = result.pain_ratio[i]
+    df = pd.DataFrame(data)
+    with atomic_file(output) as tmp:
+        if fmt == "parquet":
+            df.to_parquet(tmp, index=False)
+        else:
+            df.to_csv(tmp, index=False, float_format="%.6f")
+    return output
+
+
+# --------------------------------------------------------------------------- studies
+def _objectives_at(cfg, loads, arm, objectives) -> np.ndarray:
+    from .design import evaluate_design
+
+    r = evaluate_design(cfg, loads, arm)
+    return np.array([r[o] for o in objectives], dtype=float), r["element_peak_pressure_kPa"]
+
+
+def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
+    """Monte Carlo (and optional Sobol indices) of a study's objectives at one design.
+
+    Parameters
+    ----------
+    cfg : Config
+        The design (usually the best).
+    loads : LoadSet
+    arm : str
+    spec : UncertaintySpec
+        The study's ``uncertainty:`` section.
+    objectives : sequence of str
+
+    Returns
+    -------
+    dict
+        ``tables`` (file name -> DataFrame) and ``markdown`` (a report section).
+    """
+    import pandas as pd
+
+    from .design import LoadSet
+
+    inputs = uncertain_inputs(cfg, tissue_sd=spec.tissue_stiffness_sd,
+                              tension_sd_N=spec.strap_tension_sd_N,
+                              force_sd_N=spec.loadcell_force_sd_N,
+                              moment_sd_Nm=spec.loadcell_moment_sd_Nm)
+    cfgs = _draw_configs(cfg, inputs, spec.draws, spec.seed)
+    noisy = bool(inputs.noise_sd.any())
+    if noisy:   # noise is per sample: expand the merged rows back to every sample
+        full = np.repeat(loads.wrench_lc, loads.weights.astype(np.int64), axis=0)
+    vals, peaks = [], []
+    for d, c in enumerate(cfgs):
+        ls = loads
+        if noisy:
+            rng = np.random.default_rng([int(spec.seed), 1, d])
+            w = full + rng.standard_normal(full.shape) * inputs.noise_sd
+            ls = LoadSet(w, np.ones(len(w)), len(w))
+        v, p = _objectives_at(c, ls, arm, objectives)
+        vals.append(v)
+        peaks.append(p)
+    V = np.array(vals)
+    P = np.array(peaks)
+    q = np.array(PERCENTILES)
+    obj = pd.DataFrame({"objective": list(objectives),
+                        **{f"p{x:g}": np.nanpercentile(V, x, axis=0) for x in q},
+                        "mean": np.nanmean(V, axis=0), "sd": np.nanstd(V, axis=0, ddof=1)})
+    pat = pd.DataFrame({"location": list(cfg.labels),
+                        **{f"peak_pressure_kPa_p{x:g}": np.nanpercentile(P, x, axis=0)
+                           for x in q}})
+    tables = {"uncertainty_objectives.csv": obj, "uncertainty_patches.csv": pat}
+    md = ["## Uncertainty of the best design", "",
+          f"Monte Carlo, {spec.draws} draws (seed {spec.seed}): tissue stiffness SD "
+          f"{'from the fit-stiffness CSV' if spec.tissue_stiffness_sd == 'from_csv' else str(spec.tissue_stiffness_sd) + ' of the value'}, "
+          f"strap tension SD {spec.strap_tension_sd_N:g} N, load-cell noise SD "
+          f"{spec.loadcell_force_sd_N:g} N / {spec.loadcell_moment_sd_Nm:g} N*m "
+          "(uncertainty_objectives.csv, uncertainty_patches.csv).", "",
+          "| objective | p5 | p50 | p95 |", "|---|---|---|---|"]
+    for _, r in obj.iterrows():
+        md.append(f"| {r['objective']} | {r['p5']:.4g} | {r['p50']:.4g} | {r['p95']:.4g} |")
+    if spec.sobol:
+        sob = sobol_indices(cfg, loads, arm, inputs, objectives, spec.sobol, spec.seed)
+        if sob is not None:
+            tables["sobol.csv"] = sob
+            md += ["", "Sobol indices (SALib, Saltelli sampling with "
+                   f"{spec.sobol} base samples; sobol.csv): the inputs with the largest total "
+                   "index ST are the measurements most worth repeating.", "",
+                   "| objective | input | S1 | ST |", "|---|---|---|---|"]
+            for o in objectives:
+                top = sob[sob["objective"] == o].sort_values("ST", ascending=False).head(3)
+                for _, r in top.iterrows():
+                    md.append(f"| {o} | {r['input']} | {r['S1']:.3f} | {r['ST']:.3f} |")
+        else:
+            md += ["", "(No Sobol indices: no input has a non-zero SD.)"]
+    return {"tables": tables, "markdown": "\n".join(md)}
+
+
+def sobol_indices(cfg: Config, loads, arm: str, inputs: UncertainInputs, objectives,
+                  n_base: int, seed: int = 0):
+    """First-order and total Sobol indices of each objective to each scalar input (SALib).
+
+    Inputs: the tissue stiffness of every location with a non-zero SD, and the
+    strap tension if its SD is non-zero, each Gaussian. Costs n_base * (D + 2)
+    evaluations over the load set (D inputs).
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        objective, input, S1, S1_conf, ST, ST_conf; None when no input has an SD.
+    """
+    import pandas as pd
+
+    try:
+        from SALib.analyze import sobol as sobol_analyze
+        from SALib.sample import sobol as sobol_sample
+    except ImportError:
+        raise UsageError("Sobol indices need SALib: pip install -e .[sensitivity]",
+                         key="uncertainty.sobol") from None
+    names, bounds, which = [], [], []
+    for j, lab in enumerate(cfg.labels):
+        if inputs.tissue_sd[j] > 0:
+            names.append(f"tissue.stiffness[{lab}]")
+            bounds.append([float(cfg.tissue_stiffness[j]), float(inputs.tissue_sd[j])])
+            which.append(("k", j))
+    if inputs.tension_sd_N > 0:
+        names.append("strap.tension")
+        bounds.append([cfg.strap_tension, inputs.tension_sd_N])
+        which.append(("t", 0))
+    if not names:
+        return None
+    problem = {"num_vars": len(names), "names": names, "bounds": bounds,
+               "dists": ["norm"] * len(names)}
+    X = sobol_sample.sample(problem, int(n_base), calc_second_order=False, seed=int(seed))
+    Y = np.empty((len(X), len(objectives)))
+    for i, x in enumerate(X):
+        k = np.array(cfg.tissue_stiffness, dtype=float)
+        t = cfg.strap_tension
+        for (kind, j), v in zip(which, x):
+            if kind == "k":
+                k[j] = max(v, 1e-9 * k[j])
+            else:
+                t = max(v, 0.0)
+        c = dataclasses.replace(cfg, tissue_stiffness=k, strap_tension=float(t))
+        Y[i] = _objectives_at(c, loads, arm, objectives)[0]
+    rows = []
+    for j, o in enumerate(objectives):
+        y = Y[:, j]
+        if not np.all(np.isfinite(y)) or np.ptp(y) == 0:
+            for nm in names:
+                rows.append({"objective": o, "input": nm, "S1": 0.0, "S1_conf": 0.0,
+                             "ST": 0.0, "ST_conf": 0.0})
+            continue
+        res = sobol_analyze.analyze(problem, y, calc_second_order=False, seed=int(seed))
+        for i, nm in enumerate(names):
+            rows.append({"objective": o, "input": nm, "S1": float(res["S1"][i]),
+                         "S1_conf": float(res["S1_conf"][i]), "ST": float(res["ST"][i]),
+                         "ST_conf": float(res["ST_conf"][i])})
+    return pd.DataFrame(rows)
+
+
+def parse_sd(text: Optional[str]) -> dict:
+    """Parse ``tissue=from_csv,tension=0.1,force=0.3,moment=0.01`` (any subset).
+
+    ``tissue`` is ``from_csv`` or a fraction of the stiffness; ``tension`` [N],
+    ``force`` [log force unit] and ``moment`` [log moment unit] are SDs.
+    """
+    out = {"tissue_sd": "from_csv", "tension_sd_N": 0.0, "force_sd_N": 0.0, "moment_sd_Nm": 0.0}
+    names = {"tissue": "tissue_sd", "tension": "tension_sd_N", "force": "force_sd_N",
+             "moment": "moment_sd_Nm"}
+    if not text:
+        return out
+    for item in str(text).split(","):
+        key, sep, val = item.partition("=")
+        key = key.strip()
+        if not sep or key not in names:
+            raise UsageError(f"expected NAME=SD items with NAME among {', '.join(names)}, "
+                             f"got {item.strip()!r}", key="--uncertainty-sd")
+        if key == "tissue" and val.strip() == "from_csv":
+            continue
+        try:
+            v = float(val)
+        except ValueError:
+            v = math.nan
+        if not (math.isfinite(v) and v >= 0):
+            raise UsageError(f"{key}: expected a number >= 0, got {val.strip()!r}",
+                             key="--uncertainty-sd")
+        out[names[key]] = v
+    return out
+
+
+def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
+                              arm: str = "compliant", columns: Optional[dict] = None,
+                              sd: Optional[str] = None) -> MonteCarloResult:
+    """``phri simulate --uncertainty N``: read a log, run :func:`monte_carlo`, write the table."""
+    from ..io.atomic import check_output_path
+    from ..io.config import load_config
+    from ..io.logs import read_wrench_log, table_format
+
+    cfg = config if isinstance(config, Config) else load_config(config)
+    table_format(output, role="output", option="-o/--output")
+    check_output_path(output, [log, cfg.path, *cfg.stiffness_files], option="-o/--output")
+    colmap = dict(cfg.log_columns)
+    colmap.update(columns or {})
+    inputs = uncertain_inputs(cfg, **parse_sd(sd))
+    time, w = read_wrench_log(log, colmap)
+    res = monte_carlo(cfg, w, draws=draws, seed=seed, arm=arm, inputs=inputs)
+    write_monte_carlo(res, time, output)
+    return res
+
+
+def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed, quiet, info) -> None:
+    """The ``--uncertainty`` branch of ``phri simulate`` (absolute forces only)."""
+    if baseline != "none":
+        raise UsageError(f"--uncertainty gives percentiles of absolute forces; expected "
+                         f"--baseline none, got {baseline}", key="--baseline")
+    res = simulate_uncertainty_file(config, log, output, draws=draws, seed=seed, arm=arm,
+                                    columns=columns, sd=sd)
+    info(f"wrote {output} ({res.forces.shape[1]:,} samples x {len(res.labels)} elements, "
+         f"5/50/95th percentiles over {res.draws} Monte Carlo draws, seed {seed}"
+         + (f"; {res.not_converged} draw-samples did not converge and were left out"
+            if res.not_converged else "") + ")", quiet)
+
+
+# --------------------------------------------------------------------------- compare bands
+def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None):
+    """Monte Carlo bands of a ``phri compare`` result's simulated (zeroed) loads.
+
+    For every arm model, the config's uncertain inputs (tissue stiffness, strap
+    tension; see :func:`parse_sd`) are drawn ``draws`` times and every trial's
+    condition-mean wrenches solved again; each draw's loads are zeroed on its own
+    baseline condition, as :func:`phri_spring.workflows.compare.compare` does.
+    Load-cell noise is left out: the wrenches are means over a steady window.
+
+    Parameters
+    ----------
+    result : CompareResult
+    draws, seed
+    sd : str, optional
+        ``tissue=from_csv|FRACTION,tension=N`` (force and moment are ignored).
+
+    Returns
+    -------
+    bands : dict
+        (trial index, arm) -> ndarray (3, c, n) of the 5/50/95th percentiles [N].
+    table : pandas.DataFrame
+        experiment, direction, trial, condition, arm, location, measured_N,
+        simulated_N, sim_p5_N, sim_p50_N, sim_p95_N.
+    """
+    import pandas as pd
+
+    if int(draws) < 2:
+        raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
+    cfg = result.config
+    kw = parse_sd(sd)
+    kw["force_sd_N"] = kw["moment_sd_Nm"] = 0.0
+    inputs = uncertain_inputs(cfg, tissue_csv=result.tissue_stiffness_file, **kw)
+    cfgs = _draw_configs(cfg, inputs, int(draws), seed)
+    W = np.vstack([tc.cuff_wrench for tc in result.trials])
+    bounds = np.cumsum([0] + [len(tc.conditions) for tc in result.trials])
+    bands, rows = {}, []
+    q = np.array(PERCENTILES)
+    for arm in result.arms:
+        F = np.empty((len(cfgs), len(W), cfg.n_elements))
+        for d, c in enumerate(cfgs):
+            F[d] = solve(model_from_config(c, arm), W, max_iterations=cfg.max_iterations).forces
+        for t, tc in enumerate(result.trials):
+            Ft = F[:, bounds[t]:bounds[t + 1]]
+            Z = Ft - Ft[:, tc.baseline_index][:, None, :]
+            P = np.nanpercentile(Z, q, axis=0) if np.isnan(Z).any() else np.percentile(Z, q,
+                                                                                       axis=0)
+            bands[(t, arm)] = P
+            for i, cond in enumerate(tc.conditions):
+                for j, lab in enumerate(cfg.labels):
+                    rows.append({"experiment": tc.spec.experiment,
+                                 "direction": tc.spec.direction, "trial": tc.spec.trial,
+                                 "condition": cond, "arm": arm, "location": lab,
+                                 "measured_N": tc.measured[i, j],
+                                 "simulated_N": tc.simulated[arm][i, j],
+                                 "sim_p5_N": P[0, i, j], "sim_p50_N": P[1, i, j],
+                                 "sim_p95_N": P[2, i, j]})
+    return bands, pd.DataFrame(rows)
+
+
+def write_compare_bands(result, bands, table, outdir, *, figures: bool = True,
+                        dpi: int = 150) -> list:
+    """Write ``bands.csv`` and ``bands/<trial>.png`` into a compare output folder (atomically)."""
+    from ..io.atomic import atomic_file
+    from ..reports.compare_figures import save_figure
+    from ..reports.uncertainty_figures import bands_figure
+
+    outdir = Path(outdir)
+    files = []
+    with atomic_file(outdir / "bands.csv") as tmp:
+        table.to_csv(tmp, index=False, float_format="%.6f")
+    files.append(outdir / "bands.csv")
+    if figures:
+        (outdir / "bands").mkdir(exist_ok=True)
+        for t, tc in enumerate(result.trials):
+            fig = bands_figure(tc.measured, {arm: bands[(t, arm)] for arm in result.arms},
+                               conditions=tc.conditions, labels=result.labels,
+                               baseline_index=tc.baseline_index,
+                               title=f"{tc.spec.experiment} {tc.spec.direction} trial "
+                                     f"{tc.spec.trial}: zeroed loads, model 5-95 % band")
+            name = f"{tc.spec.experiment}_{tc.spec.direction}_{tc.spec.trial}".replace(" ", "_")
+            path = outdir / "bands" / f"{name}.png"
+            with atomic_file(path) as tmp:
+                save_figure(fig, tmp, dpi=dpi)
+            files.append(path)
+    return files
