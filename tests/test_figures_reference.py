@@ -1,0 +1,87 @@
+"""The compare figures look the same as before the rendering was made faster.
+
+``tests/data/heatmap_reference.png`` and ``tests/data/wrench_reference.png``
+were rendered by the rendering code as it was before it was optimised (commit
+"tests: reference renderings of the compare figures"), from the fixed inputs
+below; the images rendered today must match them within a small tolerance (RMS
+difference of the pixel values, matplotlib's ``compare_images``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+
+from matplotlib.testing.compare import compare_images  # noqa: E402
+
+from phri_spring.reports.compare_figures import heatmap_figure, save_figure, wrench_figure  # noqa: E402
+
+DATA = Path(__file__).parent / "data"
+TOL = 2.0
+
+
+def heatmap_inputs():
+    """Fixed, hand-made inputs: 3 rows x 7 angles, a NaN cell, values of both signs."""
+    e = np.arange(21, dtype=float)
+    measured = 6.0 * np.sin(0.7 * e) - 1.0
+    measured[5] = np.nan
+    simulated = {"rigid": 8.0 * np.cos(0.5 * e), "compliant": 5.0 * np.sin(0.7 * e + 0.3)}
+    rmse = {"rigid": 3.25, "compliant": 1.5}
+    title = ("I-Act horizontal, trial 1, L2 (33.4 N), zeroed on no_load\n"
+             "load-cell wrench, zeroed: Fx +1.00, Fy -2.00, Fz +33.40 N; "
+             "Mx +0.100, My -0.200, Mz +0.300 N·m")
+    return measured, simulated, rmse, title
+
+
+def wrench_inputs():
+    t = np.linspace(0.0, 13.0, 1301)
+    w = np.column_stack([np.sin(t), np.cos(t), 10 * (t > 4) + 20 * (t > 8), 0.1 * np.sin(2 * t),
+                         0.05 * t, -0.02 * t])
+    cond = np.full(t.size, "", dtype=object)
+    cond[(t > 0.5) & (t < 3.5)] = "no_load"
+    cond[(t > 4.5) & (t < 7.5)] = "L1"
+    cond[(t > 8.5) & (t < 12.5)] = "L2"
+    return t, w, cond
+
+
+def render_heatmap(path):
+    measured, simulated, rmse, title = heatmap_inputs()
+    fig = heatmap_figure(measured, simulated, row_labels=("A", "B", "C"), n_angles=7,
+                         title=title, rmse=rmse)
+    return save_figure(fig, path, 100)
+
+
+def render_wrench(path):
+    t, w, cond = wrench_inputs()
+    fig = wrench_figure(t, w, cond, title="I-Act horizontal, trial 1: load-cell wrench")
+    return save_figure(fig, path, 100)
+
+
+@pytest.mark.parametrize("name, render", [("heatmap", render_heatmap),
+                                          ("wrench", render_wrench)])
+def test_rendering_matches_reference(tmp_path, name, render):
+    out = render(tmp_path / f"{name}.png")
+    ref = DATA / f"{name}_reference.png"
+    assert ref.is_file()
+    diff = compare_images(str(ref), str(out), tol=TOL)
+    assert diff is None, diff
+
+
+def test_reference_comparison_can_fail(tmp_path):
+    # the comparison sees a change of one panel's values (the test can fail)
+    measured, simulated, rmse, title = heatmap_inputs()
+    simulated = dict(simulated, rigid=-simulated["rigid"])
+    fig = heatmap_figure(measured, simulated, row_labels=("A", "B", "C"), n_angles=7,
+                         title=title, rmse=rmse)
+    out = save_figure(fig, tmp_path / "changed.png", 100)
+    assert compare_images(str(DATA / "heatmap_reference.png"), str(out), tol=TOL) is not None
+
+
+if __name__ == "__main__":  # regenerate the references (only from the reference code)
+    DATA.mkdir(exist_ok=True)
+    render_heatmap(DATA / "heatmap_reference.png")
+    render_wrench(DATA / "wrench_reference.png")
