@@ -23,6 +23,9 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.option("--column", "columns", multiple=True, metavar="NAME=LOG_NAME",
               help="Map a spec column (time, Fx, Fy, Fz, Mx, My, Mz) to the log's name, "
                    "e.g. --column 'Fx=Fx (N)'. Repeatable; overrides load_cell.columns.")
+@click.option("--group", default=None, metavar="NAME",
+              help="TDMS logs: the group holding the channels; MAT logs: the struct holding "
+                   "the vectors (default: load_cell.group, else the only group / top level).")
 @click.option("--decimals", type=click.IntRange(min=-1, max=17), default=6, show_default=True,
               help="CSV output: decimals of forces [N] and pressures [kPa] (6 = 1 uN); "
                    "-1 keeps every digit. Parquet always keeps full precision.")
@@ -31,13 +34,16 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.option("--progress/--no-progress", default=None,
               help="Progress on stderr (default: only when stderr is a terminal).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
-def simulate(config, log, output, arm, baseline, columns, decimals, chunk_rows, progress, quiet):
+def simulate(config, log, output, arm, baseline, columns, group, decimals, chunk_rows, progress,
+             quiet):
     """Predict the normal force [N] on every cuff element for each sample of LOG.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
     or Parquet wrench log with columns time [s], Fx Fy Fz [N or lbf], Mx My Mz
     [N*m or N*mm] as the load cell reads them (units and axes set in the
-    config's load_cell section).
+    config's load_cell section), or a lab file with channels of those names:
+    TDMS (time from a time channel or the waveform timing) or MATLAB .mat
+    (needs the lab extra: pip install -e '.[lab]').
 
     OUT gets time [s], one column per element (A0 ... C6) with the normal
     force [N], then contacts_in_touch, peak_pressure_kPa,
@@ -53,6 +59,13 @@ def simulate(config, log, output, arm, baseline, columns, decimals, chunk_rows, 
     from phri_spring.workflows.simulate import parse_baseline, simulate_file
 
     colmap = parse_column_map(columns)
+    if group is not None:
+        from phri_spring.errors import UsageError
+        from phri_spring.io.labfiles import LOG_GROUP_KEY, lab_format
+
+        if lab_format(log) is None:
+            raise UsageError("--group applies to .tdms and .mat logs only", key="--group")
+        colmap[LOG_GROUP_KEY] = group
     base = parse_baseline(baseline)
     bar = StderrProgress("simulate", progress_enabled(progress))
     try:

@@ -27,6 +27,8 @@ __all__ = ["Config", "load_config", "config_from_dict", "resolve_stiffness", "LO
 
 #: the wrench-log columns of SPEC section 7
 LOG_COLUMNS = ("time", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
+#: where a column map carries the group of a TDMS or MAT log (``--group``, ``load_cell.group``)
+LOG_GROUP_KEY = "@group"
 
 
 # --------------------------------------------------------------------------- YAML
@@ -119,6 +121,7 @@ class _LoadCell(_Strict):
     force_unit: Literal["N", "lbf"] = "N"
     moment_unit: Literal["N*m", "N*mm"] = "N*m"
     columns: dict[str, str] = Field(default_factory=dict)
+    group: Optional[str] = None        # TDMS group / MAT struct of the log (lab files)
 
     @model_validator(mode="after")
     def _one_rotation(self):
@@ -496,7 +499,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         indenter_diameter=float(root.tissue.indenter_diameter),
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
         loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),
-        force_unit=lc.force_unit, moment_unit=lc.moment_unit, log_columns=dict(lc.columns),
+        force_unit=lc.force_unit, moment_unit=lc.moment_unit,
+        log_columns={**lc.columns, **({LOG_GROUP_KEY: lc.group} if lc.group else {})},
         pain_threshold_kpa=float(root.interface.pain_threshold_kpa),
         shear_ratio=root.interface.shear_ratio, strap_tension=float(st.tension),
         strap_model=st.model,
