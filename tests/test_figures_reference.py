@@ -85,3 +85,43 @@ if __name__ == "__main__":  # regenerate the references (only from the reference
     DATA.mkdir(exist_ok=True)
     render_heatmap(DATA / "heatmap_reference.png")
     render_wrench(DATA / "wrench_reference.png")
+
+
+# --------------------------------------------------------------------------- fast rendering
+def _scaled_inputs(k):
+    measured, simulated, rmse, title = heatmap_inputs()
+    scale = (1.0, 2.0, 0.37, 11.0, 0.5, 2.0)[k]
+    return (measured * scale, {a: v * scale for a, v in simulated.items()},
+            {a: v * scale for a, v in rmse.items()}, title.replace("L2", f"L{k}"))
+
+
+def test_reused_renderer_draws_what_a_new_figure_draws(tmp_path):
+    from phri_spring.reports.compare_figures import HeatmapRenderer
+
+    r = HeatmapRenderer(3, row_labels=("A", "B", "C"), n_angles=7)
+    for k in range(6):          # colour scales of several widths, one met twice
+        m, s, e, t = _scaled_inputs(k)
+        r.fill(m, s, title=t, rmse=e)
+        got = r.save(tmp_path / f"reused{k}.png", 60)
+        fresh = save_figure(heatmap_figure(m, s, row_labels=("A", "B", "C"), n_angles=7,
+                                           title=t, rmse=e), tmp_path / f"fresh{k}.png", 60)
+        # the unchanging parts are laid over the rest: the same pixels up to rounding
+        assert compare_images(str(fresh), str(got), tol=0.5) is None, k
+
+
+def test_rendering_does_not_depend_on_what_came_before(tmp_path):
+    from phri_spring.reports.compare_figures import HeatmapRenderer
+
+    def run(order, folder):
+        folder.mkdir()
+        r = HeatmapRenderer(3, row_labels=("A", "B", "C"), n_angles=7)
+        for k in order:
+            m, s, e, t = _scaled_inputs(k)
+            r.fill(m, s, title=t, rmse=e)
+            r.save(folder / f"{k}.png", 60)
+
+    run(range(6), tmp_path / "a")
+    run(reversed(range(6)), tmp_path / "b")
+    for k in range(6):
+        assert (tmp_path / "a" / f"{k}.png").read_bytes() == \
+            (tmp_path / "b" / f"{k}.png").read_bytes(), k
