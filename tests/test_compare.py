@@ -447,13 +447,13 @@ def test_write_compare_writes_every_figure(cfg_path, tmp_path):
     def boom(*a, **k):
         raise RuntimeError("figure failed")
 
-    orig = figs.heatmap_figure
-    figs.heatmap_figure = boom
+    orig = figs.HeatmapRenderer.fill          # heat maps are drawn by a reused renderer
+    figs.HeatmapRenderer.fill = boom
     try:
         with pytest.raises(RuntimeError):
             write_compare(res, tmp_path / "out2")
     finally:
-        figs.heatmap_figure = orig
+        figs.HeatmapRenderer.fill = orig
     assert not (tmp_path / "out2").exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out2")]
     with pytest.raises(UsageError, match="contains the input"):
