@@ -29,13 +29,17 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.option("--decimals", type=click.IntRange(min=-1, max=17), default=6, show_default=True,
               help="CSV output: decimals of forces [N] and pressures [kPa] (6 = 1 uN); "
                    "-1 keeps every digit. Parquet always keeps full precision.")
+@click.option("--plot", "plot", default=None, metavar="FILE",
+              help="Also draw the whole log at a glance (.png, .svg or .pdf): peak pressure "
+                   "[kPa] with the pain threshold, and every element's force [N] as a heat "
+                   "map, both max-pooled over time (no peak lost; bounded memory).")
 @click.option("--chunk-rows", type=click.IntRange(min=1), default=65536, show_default=True,
               help="Samples per chunk (bounds memory on long logs).")
 @click.option("--progress/--no-progress", default=None,
               help="Progress on stderr (default: only when stderr is a terminal).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
-def simulate(config, log, output, arm, baseline, columns, group, decimals, chunk_rows, progress,
-             quiet):
+def simulate(config, log, output, arm, baseline, columns, group, decimals, plot, chunk_rows,
+             progress, quiet):
     """Predict the normal force [N] on every cuff element for each sample of LOG.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
@@ -67,18 +71,36 @@ def simulate(config, log, output, arm, baseline, columns, group, decimals, chunk
             raise UsageError("--group applies to .tdms and .mat logs only", key="--group")
         colmap[LOG_GROUP_KEY] = group
     base = parse_baseline(baseline)
+    pool = None
+    if plot is not None:
+        from phri_spring.io.config import LOG_GROUP_KEY, load_config
+        from phri_spring.io.logs import count_rows
+        from phri_spring.workflows.plotting import MaxPool, check_plot_path
+
+        check_plot_path(plot, [log, config, output])
+        config = load_config(config)
+        group_name = colmap.get(LOG_GROUP_KEY, config.log_columns.get(LOG_GROUP_KEY))
+        pool = MaxPool(len(config.labels), total=count_rows(log, group_name))
     bar = StderrProgress("simulate", progress_enabled(progress))
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
                                 chunk_rows=chunk_rows, decimals=decimals,
-                                progress=bar if bar.enabled else None)
+                                progress=bar if bar.enabled else None, on_chunk=pool)
     finally:
         bar.close()
+    if pool is not None:
+        from pathlib import Path
+
+        from phri_spring.workflows.plotting import write_simulate_plot
+
+        write_simulate_plot(pool.result(), plot, labels=summary.labels,
+                            pain_threshold_kpa=config.pain_threshold_kpa,
+                            title=f"{Path(log).name}: {arm} arm")
     if summary.not_converged:
         warn(f"the solver did not converge for {summary.not_converged:,} of "
              f"{summary.samples:,} samples; their forces are NaN (column 'converged')")
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
          f"{arm} arm, baseline {base}); peak pressure {summary.max_peak_pressure_kpa:.1f} kPa at "
          f"{summary.max_peak_element} ({100 * summary.max_pain_ratio:.0f}% of the pain "
-         f"threshold); solver {summary.mean_iterations:.2f} solves/sample on average",
-         quiet)
+         f"threshold); solver {summary.mean_iterations:.2f} solves/sample on average"
+         + (f"; plot {plot}" if plot else ""), quiet)

@@ -261,7 +261,8 @@ def _window_mean(log, columns, base: Baseline, chunk_rows: int) -> np.ndarray:
 def simulate_file(config, log, output, *, arm: str = "compliant",
                   baseline: Union[str, Baseline, None] = "none", columns: Optional[dict] = None,
                   chunk_rows: int = 65536, decimals: Optional[int] = 6,
-                  progress: Optional[Callable[[int, Optional[int]], None]] = None
+                  progress: Optional[Callable[[int, Optional[int]], None]] = None,
+                  on_chunk: Optional[Callable[[np.ndarray, np.ndarray, np.ndarray], None]] = None
                   ) -> SimulateSummary:
     """Stream a wrench log through the model into a forces file.
 
@@ -285,6 +286,10 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         always stores full double precision.
     progress : callable(done, total), optional
         Called after each chunk; ``total`` may be None.
+    on_chunk : callable(time, forces, peak_pressure), optional
+        Called in this thread once per chunk, in order, with time (m,) [s],
+        absolute forces (m, n) [N] and peak pressure (m,) [kPa] (e.g. a
+        :class:`phri_spring.workflows.plotting.MaxPool`).
     """
     output = Path(output)
     out_fmt = table_format(output, role="output", option="-o/--output")
@@ -311,12 +316,14 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         # competes with the CSV writer's threads (measured: 11 % slower)
         chunks = prefetch(chunks)
     try:
-        return _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total)
+        return _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total,
+                       on_chunk)
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
 
-def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total):
+def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total,
+            on_chunk=None):
     n_samples = n_bad = 0
     it_max = 0
     it_sum = 0
@@ -344,6 +351,10 @@ def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, tot
                 sol = solve(model, W, max_iterations=cfg.max_iterations)
                 forces = sol.forces if f_base is None else sol.forces - f_base
                 writer.write(ch.time, forces, extras_of(number, sol))
+                if on_chunk is not None:
+                    ex, _ = per_sample_extras(model, sol.forces, sol.contact, sol.iterations,
+                                              sol.converged)
+                    on_chunk(ch.time, sol.forces, ex["peak_pressure_kPa"])
                 n_samples += len(ch.time)
                 n_bad += int((~sol.converged).sum())
                 it_max = max(it_max, int(sol.iterations.max()))
