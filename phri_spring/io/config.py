@@ -1,4 +1,4 @@
-"""The YAML config of SPEC section 6: safe loading and validation.
+"""The YAML config of docs/model.md section 6: safe loading and validation.
 
 Loading never runs code (``yaml.SafeLoader``: a ``!!python/...`` tag is an
 error), unknown keys are rejected with the closest valid name, duplicate keys
@@ -25,7 +25,7 @@ from ..errors import ConfigError, ConfigTypeError, DataError
 
 __all__ = ["Config", "load_config", "config_from_dict", "resolve_stiffness", "LOG_COLUMNS"]
 
-#: the wrench-log columns of SPEC section 7
+#: the wrench-log columns of docs/model.md section 7
 LOG_COLUMNS = ("time", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
 #: where a column map carries the group of a TDMS or MAT log (``--group``, ``load_cell.group``)
 LOG_GROUP_KEY = "@group"
@@ -313,7 +313,7 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = Fal
 
 def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, key="",
                       allow_inf: bool = False, base_dir: Optional[Path] = None) -> np.ndarray:
-    """Turn any stiffness value form of SPEC section 6 into an (n,) array [N/m], row-major.
+    """Turn any stiffness value form of docs/model.md section 6 into an (n,) array [N/m], row-major.
 
     Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
     rows x angles list, a mapping label -> value covering every element, or a

@@ -1,4 +1,4 @@
-"""Experiment files for ``phri compare`` (SPEC section 7): the manifest and the trial tables.
+"""Experiment files for ``phri compare`` (docs/model.md section 7): manifest and trial tables.
 
 Manifest (YAML, loaded safely; unknown keys are an error)::
 

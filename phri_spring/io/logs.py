@@ -1,4 +1,4 @@
-"""Wrench logs in, contact forces out (SPEC section 7), CSV or Parquet.
+"""Wrench logs in, contact forces out (docs/model.md section 7), CSV or Parquet.
 
 Reading and writing go through pyarrow: multi-threaded C++ CSV parsing and
 writing, Parquet, and streaming in chunks so hour-long logs fit in bounded
@@ -153,7 +153,7 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
     Yields
     ------
     WrenchChunk
-        time [s] and wrench in the log's units (SPEC section 5 converts).
+        time [s] and wrench in the log's units (docs/model.md section 5 converts).
 
     Raises
     ------
@@ -405,7 +405,7 @@ def _arrow_strings(names):
 
 
 class ForcesWriter:
-    """Write the forces table (SPEC section 7) in chunks, CSV or Parquet by extension.
+    """Write the forces table (docs/model.md section 7) in chunks, CSV or Parquet by extension.
 
     Columns: ``time``, one per element label [N], then extra columns.
 

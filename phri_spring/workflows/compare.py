@@ -1,6 +1,6 @@
 """``phri compare`` as library calls: rigid- vs compliant-arm predictions against a sensorized cuff.
 
-Method (SPEC section 7, paper sections III-C and IV-B):
+Method (docs/model.md section 7, paper sections III-C and IV-B):
 
 1. Every trial table is reduced to one mean wrench and one mean load per
    element for each condition (all rows of that condition).
@@ -48,9 +48,9 @@ __all__ = ["compare", "write_compare", "CompareResult", "TrialComparison", "Comp
 
 #: the arm models compared by default, in the paper's order
 DEFAULT_ARMS = ("rigid", "compliant")
-#: columns of rmse.csv (SPEC section 8), then load_N
+#: columns of rmse.csv (docs/model.md section 8), then load_N
 RMSE_COLUMNS = ("experiment", "direction", "condition", "trial", "arm", "rmse_N")
-#: columns of summary.csv (SPEC section 8), then load_N
+#: columns of summary.csv (docs/model.md section 8), then load_N
 SUMMARY_COLUMNS = ("experiment", "direction", "condition", "arm", "mean_rmse_N", "se_rmse_N",
                    "n_trials")
 
