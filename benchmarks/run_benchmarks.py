@@ -173,7 +173,7 @@ def bench_plot(phri, work, row, log10h, reps=3):
                  "--plot", str(work / "plot.png")]], reps)
     row("simulate 10 h, CSV -> CSV, --plot (peak pressure and heat map)",
         f"{t_plot:.1f} s, {rss_plot:.0f} MB", f"{t_no:.1f} s, {rss_no:.0f} MB (without --plot)",
-        f"+{rss_plot - rss_no:.0f} MB, {t_plot / t_no:.2f}x the time",
+        f"{rss_plot - rss_no:+.0f} MB, {t_plot / t_no:.2f}x the time",
         "<= +100 MB", rss_plot - rss_no <= 100)
     out.unlink(missing_ok=True)
 

@@ -125,3 +125,19 @@ def test_rendering_does_not_depend_on_what_came_before(tmp_path):
     for k in range(6):
         assert (tmp_path / "a" / f"{k}.png").read_bytes() == \
             (tmp_path / "b" / f"{k}.png").read_bytes(), k
+
+
+def test_reused_wrench_renderer_draws_what_a_new_figure_draws(tmp_path):
+    from phri_spring.reports.compare_figures import WrenchRenderer
+
+    t, w, cond = wrench_inputs()
+    r = WrenchRenderer()
+    for k, scale in enumerate((1.0, 40.0, 0.02, 1.0)):     # tick labels of several widths
+        c = cond.copy()
+        if k % 2:
+            c[(t > 8.5)] = ""                                 # fewer windows
+        r.fill(t, w * scale, c, title=f"trial {k}")
+        got = r.save(tmp_path / f"reused{k}.png", 60)
+        fresh = save_figure(wrench_figure(t, w * scale, c, title=f"trial {k}"),
+                            tmp_path / f"fresh{k}.png", 60)
+        assert compare_images(str(fresh), str(got), tol=0.5) is None, k

@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 
 __all__ = ["ARM_COLORS", "ARM_NAMES", "rmse_bars_figure", "heatmap_figure", "wrench_figure",
            "condition_label", "save_figure", "DEFAULT_DPI", "HeatmapRenderer", "render_job",
-           "render_figures", "available_cores"]
+           "render_figures", "available_cores", "WrenchRenderer"]
 
 #: colour-blind-safe colours of the arm models (Okabe-Ito orange and blue)
 ARM_COLORS = {"rigid": "#E69F00", "compliant": "#0072B2"}
@@ -173,7 +173,127 @@ def heatmap_figure(measured, simulated: dict, *, row_labels: Sequence[str], n_an
     return renderer.fill(measured, simulated, title=title, rmse=rmse)
 
 
-class HeatmapRenderer:
+class _ReusedFigure:
+    """A figure built once and drawn many times with other values (base of the renderers).
+
+    Subclasses build ``self.fig`` (with a constrained layout) and
+    ``self.suptitle``, list the axes whose tick labels' width moves the layout
+    (:meth:`_label_axes`), then call :meth:`_ready`. :meth:`save` computes the
+    constrained layout once per *layout signature* (the line counts of the
+    titles and the width of the widest tick label of those axes, the only
+    sizes that move the panels) and draws the figure once, without a layout
+    engine, at those positions.
+    """
+
+    fig: Figure
+
+    def _ready(self) -> None:
+        self._layouts = {}       # signature -> [(positions of every axes and the suptitle,
+        #                            the signature at those positions), ...]
+        self._measure = None     # a renderer that measures texts
+        self._canvas = None      # the Agg canvas PNGs are drawn on
+        self._initial = self._positions()   # the state a new figure's layout starts from
+
+    def _label_axes(self):
+        return []
+
+    def _positions(self):
+        return ([(a.get_position(original=True).frozen(), a.get_position(original=False).frozen())
+                 for a in self.fig.axes], self.suptitle.get_position())
+
+    def _set_positions(self, layout) -> None:
+        for a, (orig, active) in zip(self.fig.axes, layout[0]):
+            a._set_position(orig, which="original")
+            a._set_position(active, which="active")
+        self.suptitle.set_position(layout[1])
+
+    def _signature(self, dpi: int) -> tuple:
+        from matplotlib.backends.backend_agg import RendererAgg
+
+        if self._measure is None or self._measure.dpi != dpi:
+            self._measure = RendererAgg(1, 1, dpi)
+        sizes = []
+        for axis in self._label_axes():
+            axis.axes._unstale_viewLim()
+            locs = axis.get_majorticklocs()
+            lo, hi = sorted(axis.get_view_interval())
+            eps = 1e-9 * abs(hi - lo)
+            locs = [x for x in locs if lo - eps <= x <= hi + eps]
+            labels = axis.get_major_formatter().format_ticks(locs)
+            ticks = axis.get_majorticklabels()
+            prop = ticks[0].get_fontproperties() if ticks else self.suptitle.get_fontproperties()
+            ext = [self._measure.get_text_width_height_descent(t, prop, ismath=False)[:2]
+                   for t in labels]
+            across, along = (0, 1) if axis.axis_name == "y" else (1, 0)
+            width = max((e[across] for e in ext), default=0.0)
+            # how far the end labels reach past the ends of the axis (they move the layout
+            # too); zero in most figures, whatever the ticks
+            box = axis.axes.bbox
+            length = box.height if axis.axis_name == "y" else box.width
+            over = [0.0, 0.0]
+            if locs and hi > lo:
+                over[0] = max(0.0, ext[0][along] / 2 - (locs[0] - lo) / (hi - lo) * length)
+                over[1] = max(0.0, ext[-1][along] / 2 - (hi - locs[-1]) / (hi - lo) * length)
+            sizes.append((round(float(width), 3), round(over[0], 2), round(over[1], 2)))
+        titles = tuple(a.get_title().count("\n") for a in self.fig.axes)
+        return (titles, self.suptitle.get_visible(), self.suptitle.get_text().count("\n"),
+                tuple(sizes))
+
+    def _layout(self, dpi: int):
+        """Set the constrained layout of the current values; return its key.
+
+        The layout is computed (as a new figure's, from the same starting
+        positions) the first time a signature is met, and reused after that
+        when the labels at the reused positions have the same signature as
+        those of the figure it was computed for; so every image depends only
+        on its own values, not on what was drawn before.
+        """
+        fig = self.fig
+        self._set_positions(self._initial)
+        start = self._signature(dpi)
+        entry = None
+        for cand in self._layouts.get(start, ()):
+            self._set_positions(cand[0])
+            if self._signature(dpi) == cand[1]:
+                entry = cand
+                break
+        if entry is None:
+            self._set_positions(self._initial)
+            fig.set_layout_engine("constrained")
+            fig.draw_without_rendering()               # computes the layout
+            entry = (self._positions(), self._signature(dpi))
+            self._layouts.setdefault(start, []).append(entry)
+        return tuple(np.round([v for o, a in entry[0][0] for v in (*o.bounds, *a.bounds)], 9))
+
+    def _write(self, path: Path, dpi: int, key) -> None:
+        if path.suffix.lower() == ".png":
+            self._canvas.print_png(path)
+        else:
+            self.fig.savefig(path, dpi=dpi)
+
+    def save(self, path, dpi: int = DEFAULT_DPI) -> Path:
+        """Save the current figure (PNG, PDF or SVG by the extension), reusing layouts."""
+        path = Path(path)
+        fig = self.fig
+        dpi = int(dpi)
+        if self._canvas is None:
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+            self._canvas = FigureCanvasAgg(fig)
+        with _style():
+            fig.dpi = dpi
+            key = (self._layout(dpi), dpi)
+            # no layout engine at all: the figure is then drawn once (with one, even a
+            # placeholder, savefig draws twice: once for the layout, once for the pixels)
+            engine, fig._layout_engine = fig._layout_engine, None
+            try:
+                self._write(path, dpi, key)
+            finally:
+                fig._layout_engine = engine
+        return path
+
+
+class HeatmapRenderer(_ReusedFigure):
     """Many heat maps (Fig. 8b) of one layout, drawn into one figure built once.
 
     Building a figure (axes, ticks, the colour bar, one text per cell) costs
@@ -204,10 +324,6 @@ class HeatmapRenderer:
         self.row_labels = tuple(row_labels)
         self.n_angles = int(n_angles)
         self.value_format = value_format
-        self._layouts = {}       # signature -> [(positions of every axes and the suptitle,
-        #                            the signature at those positions), ...]
-        self._measure = None     # a renderer that measures texts
-        self._canvas = None      # the Agg canvas PNGs are drawn on
         self._static = {}        # layout key -> the pixels of the parts that never change
         n_rows = len(self.row_labels)
         with _style():
@@ -242,17 +358,7 @@ class HeatmapRenderer:
             self.suptitle.set_visible(False)
         self.axes = list(axes)
         self.fig = fig
-        self._initial = self._positions()   # the state a new figure's layout starts from
-
-    def _positions(self):
-        return ([(a.get_position(original=True).frozen(), a.get_position(original=False).frozen())
-                 for a in self.fig.axes], self.suptitle.get_position())
-
-    def _set_positions(self, layout) -> None:
-        for a, (orig, active) in zip(self.fig.axes, layout[0]):
-            a._set_position(orig, which="original")
-            a._set_position(active, which="active")
-        self.suptitle.set_position(layout[1])
+        self._ready()
 
     def fill(self, measured, simulated: dict, *, title: str = "",
              rmse: Optional[dict] = None) -> Figure:
@@ -299,27 +405,10 @@ class HeatmapRenderer:
             self.suptitle.set_in_layout(bool(title))
         return self.fig
 
-    def _signature(self, dpi: int) -> tuple:
-        # the constrained layout depends on the colour bar's tick labels only through the
-        # widest one (the labels are left-aligned beside the bar), and on the titles only
-        # through their line counts
-        from matplotlib.backends.backend_agg import RendererAgg
-
-        ax = self.cbar.ax.yaxis if self.cbar.orientation == "vertical" else self.cbar.ax.xaxis
-        locs = ax.get_majorticklocs()
-        vmin, vmax = sorted(ax.get_view_interval())
-        locs = [x for x in locs if vmin - 1e-9 * abs(vmax - vmin) <= x <= vmax + 1e-9 *
-                abs(vmax - vmin)]
-        labels = ax.get_major_formatter().format_ticks(locs)
-        if self._measure is None or self._measure.dpi != dpi:
-            self._measure = RendererAgg(1, 1, dpi)
-        prop = ax.get_majorticklabels()[0].get_fontproperties() if ax.get_majorticklabels() \
-            else self.suptitle.get_fontproperties()
-        width = max((self._measure.get_text_width_height_descent(t, prop, ismath=False)[0]
-                     for t in labels), default=0.0)
-        titles = tuple(a.get_title().count("\n") for a in self.axes)
-        return (titles, self.suptitle.get_visible(), self.suptitle.get_text().count("\n"),
-                round(float(width), 3))
+    def _label_axes(self):
+        # the colour bar's labels are left-aligned beside it: only the widest one counts
+        return [self.cbar.ax.yaxis if self.cbar.orientation == "vertical" else
+                self.cbar.ax.xaxis]
 
     def _save_png(self, path: Path, dpi: int, key) -> None:
         """Draw the changing parts, lay the unchanging ones over them, write the PNG.
@@ -332,7 +421,7 @@ class HeatmapRenderer:
         import matplotlib.image
 
         fig = self.fig
-        fixed = [a for ax in self.axes for a in (ax.xaxis, ax.yaxis)]
+        fixed = [a for ax in self.axes for a in (ax.xaxis, ax.yaxis)]   # drawn once per layout
         layer = self._static.get(key)
         if layer is None:
             hide = [fig.patch, *(ax.patch for ax in self.axes), *self.images, self.suptitle,
@@ -346,9 +435,11 @@ class HeatmapRenderer:
             finally:
                 for a, v in zip(hide, shown):
                     a.set_visible(v)
-            rgba = np.asarray(self._canvas.buffer_rgba())
-            alpha = rgba[..., 3:4].astype(np.float32) / 255.0
-            layer = self._static[key] = (rgba[..., :3].astype(np.float32) * alpha, 1.0 - alpha)
+            rgba = np.asarray(self._canvas.buffer_rgba()).reshape(-1, 4)
+            where = np.flatnonzero(rgba[:, 3])          # the few pixels the layer covers
+            alpha = rgba[where, 3:4].astype(np.float32) / 255.0
+            layer = self._static[key] = (where, rgba[where, :3].astype(np.float32) * alpha,
+                                         1.0 - alpha)
         for a in fixed:
             a.set_visible(False)
         try:
@@ -357,62 +448,19 @@ class HeatmapRenderer:
             for a in fixed:
                 a.set_visible(True)
         out = np.array(self._canvas.buffer_rgba())
-        premult, keep = layer
-        rgb = out[..., :3].astype(np.float32)
+        flat = out.reshape(-1, 4)
+        where, premult, keep = layer
+        rgb = flat[where, :3].astype(np.float32)
         rgb *= keep
         rgb += premult
-        out[..., :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
+        flat[where, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
         matplotlib.image.imsave(path, out, format="png", origin="upper", dpi=dpi)
 
-    def _layout(self, dpi: int):
-        """Set the constrained layout of the current values; return its key.
-
-        The layout is computed (as a new figure's, from the same starting
-        positions) the first time a signature is met, and reused after that
-        when the colour bar's labels at the reused positions have the same
-        signature as those of the figure it was computed for; so every image
-        depends only on its own values, not on what was drawn before.
-        """
-        fig = self.fig
-        self._set_positions(self._initial)
-        start = self._signature(dpi)
-        entry = None
-        for cand in self._layouts.get(start, ()):
-            self._set_positions(cand[0])
-            if self._signature(dpi) == cand[1]:
-                entry = cand
-                break
-        if entry is None:
-            self._set_positions(self._initial)
-            fig.set_layout_engine("constrained")
-            fig.draw_without_rendering()               # computes the layout
-            entry = (self._positions(), self._signature(dpi))
-            self._layouts.setdefault(start, []).append(entry)
-        return tuple(np.round([v for o, a in entry[0][0] for v in (*o.bounds, *a.bounds)], 9))
-
-    def save(self, path, dpi: int = DEFAULT_DPI) -> Path:
-        """Save the current heat map (PNG, PDF or SVG by the extension), reusing layouts."""
-        path = Path(path)
-        fig = self.fig
-        dpi = int(dpi)
-        if self._canvas is None:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
-
-            self._canvas = FigureCanvasAgg(fig)
-        with _style():
-            fig.dpi = dpi
-            key = (self._layout(dpi), dpi)
-            # no layout engine at all: the figure is then drawn once (with one, even a
-            # placeholder, savefig draws twice: once for the layout, once for the pixels)
-            engine, fig._layout_engine = fig._layout_engine, None
-            try:
-                if path.suffix.lower() == ".png":
-                    self._save_png(path, dpi, key)
-                else:
-                    fig.savefig(path, dpi=dpi)
-            finally:
-                fig._layout_engine = engine
-        return path
+    def _write(self, path: Path, dpi: int, key) -> None:
+        if path.suffix.lower() == ".png":
+            self._save_png(path, dpi, key)
+        else:
+            self.fig.savefig(path, dpi=dpi)
 
 
 def wrench_figure(time, wrench, conditions, *, title: str = "",
@@ -435,38 +483,86 @@ def wrench_figure(time, wrench, conditions, *, title: str = "",
     -------
     matplotlib.figure.Figure
         Two axes: forces (x red, y green, z blue) and moments.
+
+    See Also
+    --------
+    WrenchRenderer : draws many of these into one reused figure.
     """
-    t = np.asarray(time, dtype=float)
-    w = np.asarray(wrench, dtype=float)
-    cond = np.asarray(conditions, dtype=object)
-    colors = ("#d62728", "#2ca02c", "#1f77b4")
-    with _style():
-        fig = Figure(figsize=(7.0, 3.9), layout="constrained")
-        ax_f, ax_m = fig.subplots(2, 1, sharex=True)
-        for j, axis in enumerate("xyz"):
-            ax_f.plot(t, w[:, j], color=colors[j], lw=0.9, label=f"F{axis}")
-            ax_m.plot(t, w[:, 3 + j], color=colors[j], lw=0.9, label=f"M{axis}")
-        ax_f.set_ylabel(f"force [{force_unit}]")
-        ax_m.set_ylabel(f"moment [{moment_unit.replace('*', '·')}]")
-        ax_m.set_xlabel("time [s]")
-        # shade each steady window and name it
-        edges = np.flatnonzero(np.r_[True, cond[1:] != cond[:-1]])
-        ends = np.r_[edges[1:], len(cond)]
-        for k, (s, e) in enumerate(zip(edges, ends)):
-            if not cond[s]:
-                continue
+    return WrenchRenderer(force_unit, moment_unit).fill(time, wrench, conditions, title=title)
+
+
+class WrenchRenderer(_ReusedFigure):
+    """Many wrench traces (Fig. 8a) drawn into one figure built once.
+
+    :meth:`fill` changes the lines' data, the shaded windows and their names
+    and the title; :meth:`save` reuses the constrained layout of the same
+    signature (the widest tick label of each axis). The images are those of
+    :func:`wrench_figure` (a test compares them with a reference rendering).
+    """
+
+    _COLORS = ("#d62728", "#2ca02c", "#1f77b4")
+
+    def __init__(self, force_unit: str = "N", moment_unit: str = "N*m"):
+        with _style():
+            fig = Figure(figsize=(7.0, 3.9), layout="constrained")
+            ax_f, ax_m = fig.subplots(2, 1, sharex=True)
+            self.lines = []
+            for j, axis in enumerate("xyz"):
+                self.lines.append(ax_f.plot([], [], color=self._COLORS[j], lw=0.9,
+                                            label=f"F{axis}")[0])
+            for j, axis in enumerate("xyz"):
+                self.lines.append(ax_m.plot([], [], color=self._COLORS[j], lw=0.9,
+                                            label=f"M{axis}")[0])
+            ax_f.set_ylabel(f"force [{force_unit}]")
+            ax_m.set_ylabel(f"moment [{moment_unit.replace('*', '·')}]")
+            ax_m.set_xlabel("time [s]")
             for ax in (ax_f, ax_m):
-                ax.axvspan(t[s], t[e - 1], color="0.5" if k % 2 else "0.7", alpha=0.15, lw=0)
-            ax_f.text(0.5 * (t[s] + t[e - 1]), 1.0, str(cond[s]), ha="center", va="bottom",
-                      fontsize=8, transform=ax_f.get_xaxis_transform())
-        for ax in (ax_f, ax_m):
-            ax.legend(loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
-            ax.grid(color="0.9", lw=0.6)
-            for side in ("top", "right"):
-                ax.spines[side].set_visible(False)
-        if title:
-            fig.suptitle(title, fontsize=9.5)
-    return fig
+                ax.legend(loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
+                ax.grid(color="0.9", lw=0.6)
+                for side in ("top", "right"):
+                    ax.spines[side].set_visible(False)
+            self.suptitle = fig.suptitle(" ", fontsize=9.5)
+            self.suptitle.set_visible(False)
+            self.suptitle.set_in_layout(False)
+        self.ax_f, self.ax_m = ax_f, ax_m
+        self.fig = fig
+        self._marks = []          # the shaded windows and their names of the current trace
+        self._ready()
+
+    def _label_axes(self):
+        return [self.ax_f.yaxis, self.ax_m.yaxis, self.ax_m.xaxis]
+
+    def fill(self, time, wrench, conditions, *, title: str = "") -> Figure:
+        """Put one trial's wrench into the figure (see :func:`wrench_figure`); returns it."""
+        t = np.asarray(time, dtype=float)
+        w = np.asarray(wrench, dtype=float)
+        cond = np.asarray(conditions, dtype=object)
+        ax_f, ax_m = self.ax_f, self.ax_m
+        for mark in self._marks:
+            mark.remove()
+        self._marks = []
+        with _style():
+            for j, line in enumerate(self.lines):
+                line.set_data(t, w[:, j])
+            # shade each steady window and name it
+            edges = np.flatnonzero(np.r_[True, cond[1:] != cond[:-1]])
+            ends = np.r_[edges[1:], len(cond)]
+            for k, (s, e) in enumerate(zip(edges, ends)):
+                if not cond[s]:
+                    continue
+                for ax in (ax_f, ax_m):
+                    self._marks.append(ax.axvspan(t[s], t[e - 1], color="0.5" if k % 2 else "0.7",
+                                                  alpha=0.15, lw=0))
+                self._marks.append(ax_f.text(0.5 * (t[s] + t[e - 1]), 1.0, str(cond[s]),
+                                             ha="center", va="bottom", fontsize=8,
+                                             transform=ax_f.get_xaxis_transform()))
+            for ax in (ax_f, ax_m):
+                ax.relim()
+                ax.autoscale_view()
+            self.suptitle.set_text(title or " ")
+            self.suptitle.set_visible(bool(title))
+            self.suptitle.set_in_layout(bool(title))
+        return self.fig
 
 
 def save_figure(fig: Figure, path, dpi: int = DEFAULT_DPI) -> Path:
@@ -506,8 +602,12 @@ def render_job(job, dpi: int = DEFAULT_DPI) -> str:
         r.fill(kw.pop("measured"), kw.pop("simulated"), **kw)
         r.save(path, dpi)
     elif kind == "wrench":
-        save_figure(wrench_figure(kw.pop("time"), kw.pop("wrench"), kw.pop("conditions"), **kw),
-                    path, dpi)
+        key = ("wrench", kw.pop("force_unit", "N"), kw.pop("moment_unit", "N*m"))
+        r = _RENDERERS.get(key)
+        if r is None:
+            r = _RENDERERS[key] = WrenchRenderer(key[1], key[2])
+        r.fill(kw.pop("time"), kw.pop("wrench"), kw.pop("conditions"), **kw)
+        r.save(path, dpi)
     elif kind == "bars":
         save_figure(rmse_bars_figure(kw.pop("summary"), kw.pop("rmse", None), **kw), path, dpi)
     else:
