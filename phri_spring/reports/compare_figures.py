@@ -197,6 +197,11 @@ class _ReusedFigure:
     def _label_axes(self):
         return []
 
+    def _short_axes(self):
+        # axes shorter than their neighbours: labels reaching past their ends stay within the
+        # figure's other parts and do not move the layout
+        return []
+
     def _positions(self):
         return ([(a.get_position(original=True).frozen(), a.get_position(original=False).frozen())
                  for a in self.fig.axes], self.suptitle.get_position())
@@ -214,6 +219,7 @@ class _ReusedFigure:
             self._measure = RendererAgg(1, 1, dpi)
         sizes = []
         for axis in self._label_axes():
+            ends = axis not in self._short_axes()
             axis.axes._unstale_viewLim()
             locs = axis.get_majorticklocs()
             lo, hi = sorted(axis.get_view_interval())
@@ -231,7 +237,7 @@ class _ReusedFigure:
             box = axis.axes.bbox
             length = box.height if axis.axis_name == "y" else box.width
             over = [0.0, 0.0]
-            if locs and hi > lo:
+            if ends and locs and hi > lo:
                 over[0] = max(0.0, ext[0][along] / 2 - (locs[0] - lo) / (hi - lo) * length)
                 over[1] = max(0.0, ext[-1][along] / 2 - (hi - locs[-1]) / (hi - lo) * length)
             sizes.append((round(float(width), 3), round(over[0], 2), round(over[1], 2)))
@@ -260,7 +266,8 @@ class _ReusedFigure:
         if entry is None:
             self._set_positions(self._initial)
             fig.set_layout_engine("constrained")
-            fig.draw_without_rendering()               # computes the layout
+            # the layout alone, as savefig computes it before drawing (not a whole draw)
+            fig.get_layout_engine().execute(fig)
             entry = (self._positions(), self._signature(dpi))
             self._layouts.setdefault(start, []).append(entry)
         return tuple(np.round([v for o, a in entry[0][0] for v in (*o.bounds, *a.bounds)], 9))
@@ -409,6 +416,9 @@ class HeatmapRenderer(_ReusedFigure):
         # the colour bar's labels are left-aligned beside it: only the widest one counts
         return [self.cbar.ax.yaxis if self.cbar.orientation == "vertical" else
                 self.cbar.ax.xaxis]
+
+    def _short_axes(self):
+        return self._label_axes()           # the bar is 80 % of the panels' height
 
     def _save_png(self, path: Path, dpi: int, key) -> None:
         """Draw the changing parts, lay the unchanging ones over them, write the PNG.
@@ -587,6 +597,18 @@ def _heatmap_renderer(n_panels: int, row_labels, n_angles: int) -> "HeatmapRende
     return r
 
 
+def _renderer_for(job) -> "_ReusedFigure":
+    """This process's renderer for a heat-map or wrench job (built on first use)."""
+    kind, _, kw = job
+    if kind == "heatmap":
+        return _heatmap_renderer(1 + len(kw["simulated"]), kw["row_labels"], kw["n_angles"])
+    key = ("wrench", kw.get("force_unit", "N"), kw.get("moment_unit", "N*m"))
+    r = _RENDERERS.get(key)
+    if r is None:
+        r = _RENDERERS[key] = WrenchRenderer(key[1], key[2])
+    return r
+
+
 def render_job(job, dpi: int = DEFAULT_DPI) -> str:
     """Draw and save one figure described by ``job = (kind, path, arguments)``.
 
@@ -596,17 +618,14 @@ def render_job(job, dpi: int = DEFAULT_DPI) -> str:
     """
     kind, path, kw = job
     kw = dict(kw)
-    if kind == "heatmap":
-        r = _heatmap_renderer(1 + len(kw["simulated"]), kw.pop("row_labels"),
-                              kw.pop("n_angles"))
-        r.fill(kw.pop("measured"), kw.pop("simulated"), **kw)
-        r.save(path, dpi)
-    elif kind == "wrench":
-        key = ("wrench", kw.pop("force_unit", "N"), kw.pop("moment_unit", "N*m"))
-        r = _RENDERERS.get(key)
-        if r is None:
-            r = _RENDERERS[key] = WrenchRenderer(key[1], key[2])
-        r.fill(kw.pop("time"), kw.pop("wrench"), kw.pop("conditions"), **kw)
+    if kind in ("heatmap", "wrench"):
+        r = _renderer_for(job)
+        for name in ("row_labels", "n_angles", "force_unit", "moment_unit"):
+            kw.pop(name, None)
+        if kind == "heatmap":
+            r.fill(kw.pop("measured"), kw.pop("simulated"), **kw)
+        else:
+            r.fill(kw.pop("time"), kw.pop("wrench"), kw.pop("conditions"), **kw)
         r.save(path, dpi)
     elif kind == "bars":
         save_figure(rmse_bars_figure(kw.pop("summary"), kw.pop("rmse", None), **kw), path, dpi)
@@ -701,6 +720,10 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
         for job in jobs:
             render_job(job, dpi)
         return [str(j[1]) for j in (*local, *jobs)]
+    # build the renderers before the workers are forked: they inherit them, built once
+    for job in jobs:
+        if job[0] in ("heatmap", "wrench"):
+            _renderer_for(job)
     try:
         pool = _pool(workers - 1)
     except (OSError, ImportError, ValueError):   # no process support here: draw serially

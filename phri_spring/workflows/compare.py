@@ -422,6 +422,14 @@ def _unique(name: str, used: set) -> str:
     return out
 
 
+def _scale(heat: dict) -> float:
+    """The colour scale of a heat-map job: its largest |value| [N]."""
+    vals = np.concatenate([np.ravel(heat["measured"])] +
+                          [np.ravel(v) for v in heat["simulated"].values()])
+    vals = vals[np.isfinite(vals)]
+    return float(np.max(np.abs(vals))) if vals.size else 0.0
+
+
 def _heat_title(tc: TrialComparison, j: int, cfg: Config) -> str:
     s = tc.spec
     zw = tc.zeroed_wrench[j]
@@ -510,6 +518,10 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
                     written.append(outdir / "heatmaps" / hname)
                     heat.append((c, f"heatmaps/{hname}"))
                 fig_index.append((s, f"wrench/{wname}", heat))
+            # this process draws from the front of the list, the workers from the back: heat
+            # maps in order of their colour scale keep the figures sharing a layout together
+            jobs.sort(key=lambda j: (j[0] == "heatmap", _scale(j[2]) if j[0] == "heatmap"
+                                     else 0.0))
             render_figures(jobs, dpi, workers=workers, local=local)
         (tmp / "report.md").write_text(_report(result, fig_index, figures), encoding="utf-8")
         written.append(outdir / "report.md")
