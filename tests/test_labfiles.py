@@ -8,7 +8,6 @@ group, and leaves no output behind.
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
 
@@ -18,7 +17,7 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from conftest import HARMONY_CONFIG, REPO, harmony_dict, one_line
+from conftest import HARMONY_CONFIG, REPO, one_line
 from phri_cli.main import phri
 
 pytest.importorskip("nptdms")
@@ -143,12 +142,8 @@ def test_column_map_and_config_group(tmp_path, csv_forces):
                 GroupObject("loadcell"), ChannelObject("loadcell", "Zeit", t)]
         objs += [ChannelObject("loadcell", n, w[:, j]) for j, n in enumerate(names)]
         wr.write_segment(objs)
-    cfg = harmony_dict()
-    import yaml as _yaml
-
     cfg_path = tmp_path / "cfg.yaml"
-    cfg["load_cell"]["group"] = "loadcell"
-    cfg_text = _yaml.safe_load(HARMONY_CONFIG.read_text())
+    cfg_text = yaml.safe_load(HARMONY_CONFIG.read_text())
     cfg_text["load_cell"]["group"] = "loadcell"
     cfg_path.write_text(yaml.safe_dump(cfg_text))
     cols = ["--column", "time=Zeit"] + [a for j, n in enumerate(names)
