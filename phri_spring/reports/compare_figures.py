@@ -711,13 +711,11 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
     import collections
     from concurrent.futures import FIRST_COMPLETED, wait
 
-    jobs = list(jobs)
+    jobs, local = list(jobs), list(local)
     workers = available_cores() if workers is None else max(1, int(workers))
     workers = min(workers, 1 + len(jobs) // 4)       # a process per few figures at most
-    for job in local:
-        render_job(job, dpi)
     if workers <= 1:
-        for job in jobs:
+        for job in (*local, *jobs):
             render_job(job, dpi)
         return [str(j[1]) for j in (*local, *jobs)]
     # build the renderers before the workers are forked: they inherit them, built once
@@ -729,16 +727,20 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
     except (OSError, ImportError, ValueError):   # no process support here: draw serially
         pool = None
     if pool is None:
-        for job in jobs:
+        for job in (*local, *jobs):
             render_job(job, dpi)
         return [str(j[1]) for j in (*local, *jobs)]
     pending = collections.deque(jobs)
     inflight = set()
+    mine = collections.deque(local)
     try:
-        while pending or inflight:
+        while pending or inflight or mine:
             while pending and len(inflight) < 2 * (workers - 1):
                 inflight.add(_submit(pool, render_job, pending.pop(), dpi))
-            if pending:
+            if mine:                                  # while the workers start drawing
+                render_job(mine.popleft(), dpi)
+                done = {f for f in inflight if f.done()}
+            elif pending:
                 render_job(pending.popleft(), dpi)
                 done = {f for f in inflight if f.done()}
             else:
