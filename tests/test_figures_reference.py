@@ -141,3 +141,21 @@ def test_reused_wrench_renderer_draws_what_a_new_figure_draws(tmp_path):
         fresh = save_figure(wrench_figure(t, w * scale, c, title=f"trial {k}"),
                             tmp_path / f"fresh{k}.png", 60)
         assert compare_images(str(fresh), str(got), tol=0.5) is None, k
+
+
+@pytest.mark.parametrize("opaque", [True, False])
+def test_png_writer_keeps_every_pixel(tmp_path, opaque):
+    from PIL import Image
+
+    from phri_spring.reports.compare_figures import write_png
+
+    rng = np.random.default_rng(7)
+    rgba = rng.integers(0, 256, (31, 47, 4), dtype=np.uint8)
+    if opaque:
+        rgba[..., 3] = 255
+    write_png(tmp_path / "x.png", rgba, 170)
+    with Image.open(tmp_path / "x.png") as im:          # another decoder reads it back
+        assert im.mode == ("RGB" if opaque else "RGBA")
+        back = np.asarray(im)
+        assert round(im.info["dpi"][0]) == 170
+    np.testing.assert_array_equal(back, rgba[..., :3] if opaque else rgba)

@@ -21,7 +21,7 @@ from matplotlib.figure import Figure
 
 __all__ = ["ARM_COLORS", "ARM_NAMES", "rmse_bars_figure", "heatmap_figure", "wrench_figure",
            "condition_label", "save_figure", "DEFAULT_DPI", "HeatmapRenderer", "render_job",
-           "render_figures", "available_cores", "WrenchRenderer"]
+           "render_figures", "available_cores", "WrenchRenderer", "write_png"]
 
 #: colour-blind-safe colours of the arm models (Okabe-Ito orange and blue)
 ARM_COLORS = {"rigid": "#E69F00", "compliant": "#0072B2"}
@@ -274,7 +274,8 @@ class _ReusedFigure:
 
     def _write(self, path: Path, dpi: int, key) -> None:
         if path.suffix.lower() == ".png":
-            self._canvas.print_png(path)
+            self._canvas.draw()
+            write_png(path, np.asarray(self._canvas.buffer_rgba()), dpi)
         else:
             self.fig.savefig(path, dpi=dpi)
 
@@ -428,8 +429,6 @@ class HeatmapRenderer(_ReusedFigure):
         transparent layer, and laid over the rest (they overlap only the images,
         which they cover, as when drawn in one pass).
         """
-        import matplotlib.image
-
         fig = self.fig
         fixed = [a for ax in self.axes for a in (ax.xaxis, ax.yaxis)]   # drawn once per layout
         layer = self._static.get(key)
@@ -464,7 +463,7 @@ class HeatmapRenderer(_ReusedFigure):
         rgb *= keep
         rgb += premult
         flat[where, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
-        matplotlib.image.imsave(path, out, format="png", origin="upper", dpi=dpi)
+        write_png(path, out, dpi)
 
     def _write(self, path: Path, dpi: int, key) -> None:
         if path.suffix.lower() == ".png":
@@ -573,6 +572,45 @@ class WrenchRenderer(_ReusedFigure):
             self.suptitle.set_visible(bool(title))
             self.suptitle.set_in_layout(bool(title))
         return self.fig
+
+
+def write_png(path, rgba, dpi: float) -> Path:
+    """Write pixels (h, w, 4) uint8 as a PNG, RGB when every pixel is opaque.
+
+    The same pixels as matplotlib's PNG writer (lossless), about twice as fast:
+    rows are stored unfiltered and deflated once (Pillow tries a filter per row,
+    which costs more than it saves on figures' flat colours). Carries the
+    resolution (pHYs) and the writing software, as matplotlib's does.
+    """
+    import struct
+    import zlib
+
+    import matplotlib
+
+    rgba = np.asarray(rgba, dtype=np.uint8)
+    h, w = rgba.shape[:2]
+    opaque = bool(np.all(rgba[..., 3] == 255))
+    px = rgba[..., :3] if opaque else rgba
+    raw = np.zeros((h, 1 + w * px.shape[2]), dtype=np.uint8)   # filter byte 0: none
+    raw[:, 1:] = px.reshape(h, -1)
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (struct.pack(">I", len(data)) + kind + data +
+                struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    ppm = int(round(float(dpi) / 0.0254))
+    data = b"".join([
+        b"\x89PNG\r\n\x1a\n",
+        chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2 if opaque else 6, 0, 0, 0)),
+        chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1)),
+        chunk(b"tEXt", b"Software\0" + f"Matplotlib version{matplotlib.__version__}, "
+              "https://matplotlib.org/".encode("latin-1")),
+        chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)),
+        chunk(b"IEND", b""),
+    ])
+    path = Path(path)
+    path.write_bytes(data)
+    return path
 
 
 def save_figure(fig: Figure, path, dpi: int = DEFAULT_DPI) -> Path:
