@@ -4,6 +4,8 @@ Usage (from the repository root, after `pip install -e .`):
 
     python benchmarks/run_benchmarks.py                 # full run, writes benchmarks/RESULTS.md
     python benchmarks/run_benchmarks.py --quick         # fewer repeats, no ten-hour log
+    python benchmarks/run_benchmarks.py --only compare  # one group of rows (printed; not
+    python benchmarks/run_benchmarks.py --only plot     #   written to RESULTS.md without --out)
 
 Logs are generated into a temporary folder (synthetic, fixed seeds, values
 rounded to 4 decimals like a load-cell export). phri-spring's modules are
@@ -145,12 +147,85 @@ def fine_model(rows: int, angles: int):
     return build_model(g, k_t, k_c)
 
 
+EXPERIMENT = ROOT / "examples" / "experiment" / "manifest.yaml"
+
+
+def bench_compare(phri, work, reps, row):
+    """`phri compare` on the bundled example with figures and with --no-figures, in turns."""
+    # --output (not -o): the folder is rewritten in place on every run, not deleted
+    (t_fig, _, _), (t_tab, _, _) = run_interleaved(
+        [phri + ["compare", str(CONFIG), str(EXPERIMENT), "--output", str(work / "cmp_fig"),
+                 "-q"],
+         phri + ["compare", str(CONFIG), str(EXPERIMENT), "--output", str(work / "cmp_tab"),
+                 "-q", "--no-figures"]], reps)
+    n_png = len(list((work / "cmp_fig").rglob("*.png")))
+    row(f"compare, bundled example: figures vs --no-figures ({n_png} figures, "
+        f"{os.cpu_count()} cores)", f"{t_fig:.2f} s", f"{t_tab:.2f} s (--no-figures)",
+        f"{t_fig / t_tab:.1f}x", "<= 4x", t_fig / t_tab <= 4.0)
+
+
+def bench_plot(phri, work, row, log10h, reps=3):
+    """`phri simulate --plot` on a 10 h log: peak memory and time against the run without."""
+    out = work / "forces_plot.csv"
+    (t_no, rss_no, _), (t_plot, rss_plot, _) = run_interleaved(
+        [phri + ["simulate", str(CONFIG), str(log10h), "-o", str(out), "-q"],
+         phri + ["simulate", str(CONFIG), str(log10h), "-o", str(out), "-q",
+                 "--plot", str(work / "plot.png")]], reps)
+    row("simulate 10 h, CSV -> CSV, --plot (peak pressure and heat map)",
+        f"{t_plot:.1f} s, {rss_plot:.0f} MB", f"{t_no:.1f} s, {rss_no:.0f} MB (without --plot)",
+        f"{rss_plot - rss_no:+.0f} MB, {t_plot / t_no:.2f}x the time",
+        "<= +100 MB", rss_plot - rss_no <= 100)
+    out.unlink(missing_ok=True)
+
+
+def main_only(args):
+    """The rows of one group (``--only``), printed (and written with ``--out``)."""
+    compile_bytecode()
+    work = Path(args.workdir or tempfile.mkdtemp(prefix="phri-bench-"))
+    work.mkdir(parents=True, exist_ok=True)
+    phri = [sys.executable, "-m", "phri_cli.main"]
+    rows = []
+
+    def row(scenario, value, baseline, ratio, target, ok):
+        rows.append((scenario, value, baseline, ratio, target, "yes" if ok else "**no**"))
+        print(f"{scenario}: {value} | {baseline} | {ratio} | {target} | "
+              f"{'met' if ok else 'NOT met'}", flush=True)
+
+    reps = 3 if args.quick else 5
+    if args.only == "compare":
+        bench_compare(phri, work, reps, row)
+    else:
+        log10h = work / "log_10h.csv"
+        if not log10h.exists():
+            print(f"generating the 10 h log in {work} ...", flush=True)
+            make_log(log10h, 3_600_000, seed=11)
+        bench_plot(phri, work, row, log10h, reps=2 if args.quick else 3)
+    lines = ["| scenario | result | baseline (same run) | ratio | target | met |",
+             "|---|---|---|---|---|---|"]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    text = (f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+            f"{platform.python_version()}. {time.strftime('%Y-%m-%d')}.\n\nCommand: `python "
+            f"benchmarks/run_benchmarks.py --only {args.only}"
+            f"{' --quick' if args.quick else ''}`\n\n" + "\n".join(lines) + "\n")
+    print("\n" + text)
+    if args.out_given:
+        Path(args.out).write_text(text)
+    if args.workdir is None:
+        shutil.rmtree(work, ignore_errors=True)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer repeats; skip the ten-hour log")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "RESULTS.md"))
     ap.add_argument("--workdir", default=None, help="where logs go (default: a temp folder)")
+    ap.add_argument("--only", choices=("compare", "plot"), default=None,
+                    help="run one group of rows: compare (figures vs --no-figures) or plot "
+                         "(simulate --plot on a 10 h log)")
     args = ap.parse_args()
+    args.out_given = "--out" in sys.argv
+    if args.only:
+        return main_only(args)
     reps = 3 if args.quick else 7
     compile_bytecode()
     work = Path(args.workdir or tempfile.mkdtemp(prefix="phri-bench-"))
@@ -200,6 +275,9 @@ def main():
     row("  peak memory, Parquet -> Parquet", f"{rss_pq:.0f} MB", "", "", "<= 500 MB",
         rss_pq <= 500)
 
+    # 3b. compare: figures against tables only (issue 14)
+    bench_compare(phri, work, reps, row)
+
     # 4. longer logs: streaming in bounded memory, time linear in length. The 100-sample,
     # 1 h, 3 h and 10 h runs take turns (5 rounds after a warm-up round), so that a slow
     # spell of the machine does not fall on one length only.
@@ -226,6 +304,8 @@ def main():
         row("  peak memory, 1 h / 3 h / 10 h",
             " / ".join(f"{timed[h][1]:.0f}" for h in (1, 3, 10)) + " MB", "", "", "<= 500 MB",
             max(timed[h][1] for h in (1, 3, 10)) <= 500)
+        # --plot on the 10 h log: memory against the run without it (issue 14)
+        bench_plot(phri, work, row, logs_h[10])
         for hours in (3, 10):
             logs_h[hours].unlink()
         for h in sizes:

@@ -18,6 +18,9 @@ from ._common import info, progress_enabled
 @click.option("--tissue-stiffness", metavar="CSV", default=None,
               help="Tissue stiffness map [N/m, indenter basis] written by 'phri fit-stiffness', "
                    "replacing the config's tissue.stiffness.")
+@click.option("--group", default=None, metavar="NAME",
+              help="Trial tables in TDMS files: the group holding the channels; in .mat "
+                   "files: the struct holding the vectors (default: load_cell.group).")
 @click.option("--no-figures", is_flag=True,
               help="Write the tables and report.md only (no PNG figures; faster).")
 @click.option("--dpi", type=click.IntRange(min=50, max=600), default=170, show_default=True,
@@ -30,7 +33,7 @@ from ._common import info, progress_enabled
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the draws.")
 @click.option("-q", "--quiet", is_flag=True,
               help="Print nothing on success (the summary is in OUTDIR/summary.csv).")
-def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, quiet,
+def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures, dpi, quiet,
             uncertainty=None, uncertainty_sd=None, seed=0):
     """Compare predicted and measured cuff loads [N] for every trial and condition.
 
@@ -46,6 +49,8 @@ def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, q
     Each trial CSV holds time [s], Fx Fy Fz [load-cell force unit], Mx My Mz
     [moment unit], one column per element (A0 ... C6) with the measured load
     [N], and condition (the steady window's label, empty between windows).
+    Trial tables may also be TDMS or MATLAB .mat files with channels (vectors)
+    of those names (needs the lab extra: pip install -e '.[lab]').
 
     For each trial, condition and arm model, the measured loads and the model's
     loads at the condition's mean wrench are zeroed on the baseline condition,
@@ -67,7 +72,13 @@ def compare(config, manifest, output, arms, tissue_stiffness, no_figures, dpi, q
     arm_list = parse_arms(arms)
     check_output_path(output, [config, manifest, tissue_stiffness], option="-o/--output",
                       directory=True)
-    result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness)
+    colmap = {}
+    if group is not None:
+        from phri_spring.io.labfiles import LOG_GROUP_KEY
+
+        colmap[LOG_GROUP_KEY] = group
+    result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness,
+                         columns=colmap)
     if uncertainty is not None:  # computed before anything is written: a failure leaves nothing
         from phri_spring.workflows.uncertainty import compare_bands, write_compare_bands
         bands = compare_bands(result, draws=uncertainty, seed=seed, sd=uncertainty_sd)

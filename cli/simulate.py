@@ -29,9 +29,16 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.option("--column", "columns", multiple=True, metavar="NAME=LOG_NAME",
               help="Map a spec column (time, Fx, Fy, Fz, Mx, My, Mz) to the log's name, "
                    "e.g. --column 'Fx=Fx (N)'. Repeatable; overrides load_cell.columns.")
+@click.option("--group", default=None, metavar="NAME",
+              help="TDMS logs: the group holding the channels; MAT logs: the struct holding "
+                   "the vectors (default: load_cell.group, else the only group / top level).")
 @click.option("--decimals", type=click.IntRange(min=-1, max=17), default=6, show_default=True,
               help="CSV output: decimals of forces [N] and pressures [kPa] (6 = 1 uN); "
                    "-1 keeps every digit. Parquet always keeps full precision.")
+@click.option("--plot", "plot", default=None, metavar="FILE",
+              help="Also draw the whole log at a glance (.png, .svg or .pdf): peak pressure "
+                   "[kPa] with the pain threshold, and every element's force [N] as a heat "
+                   "map, both max-pooled over time (no peak lost; bounded memory).")
 @click.option("--chunk-rows", type=click.IntRange(min=1), default=65536, show_default=True,
               help="Samples per chunk (bounds memory on long logs).")
 @click.option("--progress/--no-progress", default=None,
@@ -45,14 +52,16 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seed of the Monte Carlo draws.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
-def simulate(config, log, output, arm, shear, baseline, columns, decimals, chunk_rows, progress,
-             quiet, uncertainty=None, uncertainty_sd=None, seed=0):
+def simulate(config, log, output, arm, shear, baseline, columns, group, decimals, plot,
+             chunk_rows, progress, quiet, uncertainty=None, uncertainty_sd=None, seed=0):
     """Predict the normal force [N] on every cuff element for each sample of LOG.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
     or Parquet wrench log with columns time [s], Fx Fy Fz [N or lbf], Mx My Mz
     [N*m or N*mm] as the load cell reads them (units and axes set in the
-    config's load_cell section).
+    config's load_cell section), or a lab file with channels of those names:
+    TDMS (time from a time channel or the waveform timing) or MATLAB .mat
+    (needs the lab extra: pip install -e '.[lab]').
 
     OUT gets time [s], one column per element (A0 ... C6) with the normal
     force [N], then contacts_in_touch, peak_pressure_kPa,
@@ -68,19 +77,44 @@ def simulate(config, log, output, arm, shear, baseline, columns, decimals, chunk
     from phri_spring.workflows.simulate import parse_baseline, simulate_file
 
     colmap = parse_column_map(columns)
+    if group is not None:
+        from phri_spring.errors import UsageError
+        from phri_spring.io.labfiles import LOG_GROUP_KEY, lab_format
+
+        if lab_format(log) is None:
+            raise UsageError("--group applies to .tdms and .mat logs only", key="--group")
+        colmap[LOG_GROUP_KEY] = group
     base = parse_baseline(baseline)
     if uncertainty is not None:
         from phri_spring.workflows.uncertainty import run_cli
         return run_cli(config, log, output, arm, str(base), colmap, uncertainty, uncertainty_sd,
                        seed, quiet, info)
+    pool = None
+    if plot is not None:
+        from phri_spring.io.config import LOG_GROUP_KEY, load_config
+        from phri_spring.io.logs import count_rows
+        from phri_spring.workflows.plotting import MaxPool, check_plot_path
+
+        check_plot_path(plot, [log, config, output])
+        config = load_config(config)
+        group_name = colmap.get(LOG_GROUP_KEY, config.log_columns.get(LOG_GROUP_KEY))
+        pool = MaxPool(len(config.labels), total=count_rows(log, group_name))
     bar = StderrProgress("simulate", progress_enabled(progress))
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
                                 shear=shear,
                                 chunk_rows=chunk_rows, decimals=decimals,
-                                progress=bar if bar.enabled else None)
+                                progress=bar if bar.enabled else None, on_chunk=pool)
     finally:
         bar.close()
+    if pool is not None:
+        from pathlib import Path
+
+        from phri_spring.workflows.plotting import write_simulate_plot
+
+        write_simulate_plot(pool.result(), plot, labels=summary.labels,
+                            pain_threshold_kpa=config.pain_threshold_kpa,
+                            title=f"{Path(log).name}: {arm} arm")
     if summary.not_converged:
         warn(f"the solver did not converge for {summary.not_converged:,} of "
              f"{summary.samples:,} samples; their forces are NaN (column 'converged')")
@@ -92,4 +126,4 @@ def simulate(config, log, output, arm, shear, baseline, columns, decimals, chunk
         peak = "no converged sample, no peak pressure"
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
          f"{arm} arm, baseline {base}); {peak}; solver {summary.mean_iterations:.2f} "
-         f"solves/sample on average", quiet)
+         f"solves/sample on average" + (f"; plot {plot}" if plot else ""), quiet)

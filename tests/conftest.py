@@ -1,7 +1,7 @@
 """Shared fixtures, hypothesis strategies and helpers of the test suite.
 
 Expected values come from ``tests/reference_model.py`` (an independent
-implementation of SPEC sections 1-6), from closed forms derived by hand in the
+implementation of docs/model.md sections 1-6), from closed forms derived by hand in the
 tests, never from the package's own output.
 """
 
@@ -25,7 +25,7 @@ import reference_model as ref  # noqa: E402
 
 HARMONY_CONFIG = REPO / "configs" / "harmony_upper_arm.yaml"
 
-#: the example config of SPEC section 6, as a mapping
+#: the example config of docs/model.md section 6, as a mapping
 HARMONY_DICT = {
     "name": "Harmony upper-arm cuff on the proxy arm",
     "geometry": {
@@ -51,7 +51,7 @@ def harmony_dict() -> dict:
 
 @pytest.fixture
 def harmony() -> dict:
-    """A fresh copy of the SPEC section 6 example config (mutable)."""
+    """A fresh copy of the docs/model.md section 6 example config (mutable)."""
     return harmony_dict()
 
 
@@ -62,7 +62,7 @@ def _log_uniform(lo, hi):
 
 @st.composite
 def geometries(draw, max_rows=4, min_count=2, max_count=12):
-    """Keyword arguments of a cuff geometry (SPEC section 1)."""
+    """Keyword arguments of a cuff geometry (docs/model.md section 1)."""
     n_rows = draw(st.integers(1, max_rows))
     count = draw(st.integers(min_count, max_count))
     step = draw(st.floats(8.0, 360.0 / count))

@@ -1,8 +1,8 @@
-"""An independent implementation of the model of SPEC sections 1-6, for tests only.
+"""An independent implementation of the model of docs/model.md sections 1-6, for tests only.
 
-Written from ../shared/SPEC.md, not from the package: it never imports
+Written from docs/model.md, not from the package: it never imports
 ``phri_spring``. It favours plainness over speed (explicit loops over
-elements) and solves the equilibrium of SPEC section 4 by a different method
+elements) and solves the equilibrium of docs/model.md section 4 by a different method
 than the package:
 
 1. minimise the energy Pi(u) with ``scipy.optimize.minimize`` (trust-exact,
@@ -83,7 +83,7 @@ class Geometry:
 
 
 def make_geometry(rows, radius, row_width, start, step, count, width=None) -> Geometry:
-    """SPEC section 1. ``rows`` is a mapping label -> axial position (m), proximal first."""
+    """docs/model.md section 1. ``rows``: a mapping label -> axial position (m), proximal first."""
     row_labels = [str(k) for k in rows]
     row_x = [float(v) for v in rows.values()]
     n_rows = len(row_labels)
@@ -112,7 +112,7 @@ def make_geometry(rows, radius, row_width, start, step, count, width=None) -> Ge
 
 # --------------------------------------------------------------------------- springs
 def indenter_to_element(k_ind, area, diameter=0.009):
-    """SPEC 2: k_t,e = k_ind,e * A_e / (pi d^2 / 4)."""
+    """docs/model.md section 2: k_t,e = k_ind,e * A_e / (pi d^2 / 4)."""
     return np.asarray(k_ind, dtype=float) * np.asarray(area, dtype=float) / (
         math.pi * diameter * diameter / 4.0)
 
@@ -143,14 +143,14 @@ def shear_matrix(geom: Geometry, ks) -> np.ndarray:
 
 
 def hoop_f0(geom: Geometry, tension: float) -> np.ndarray:
-    """SPEC 3 hoop: f0_e = T * radians(width) * w_r / sum_r(w_r)."""
+    """docs/model.md section 3 hoop: f0_e = T * radians(width) * w_r / sum_r(w_r)."""
     total_w = sum(geom.row_width)
     return np.array([tension * math.radians(geom.width_deg) * w / total_w
                      for w in geom.elem_row_width])
 
 
 def handles_wrench(geom: Geometry, tension: float, handle_angles=None, axial_position=None):
-    """SPEC 3 handles: W_pre = T (t_b - t_a, p_b x t_b - p_a x t_a)."""
+    """docs/model.md section 3 handles: W_pre = T (t_b - t_a, p_b x t_b - p_a x t_a)."""
     if handle_angles is None:
         half = geom.width_deg / 2.0
         handle_angles = (geom.theta_deg[0] - half, geom.theta_deg[-1] + half)
@@ -203,7 +203,7 @@ class RefModel:
 def build(geom: Geometry, k_tissue_element, k_cuff, *, arm="compliant", shear_ratio=None,
           poisson_ratio=0.45, tension=15.0, strap_model="hoop", handle_angles=None,
           axial_position=None) -> RefModel:
-    """SPEC sections 2 and 3, from element tissue stiffness (already converted)."""
+    """docs/model.md sections 2 and 3, from element tissue stiffness (already converted)."""
     n = len(geom.labels)
     kt = np.broadcast_to(np.asarray(k_tissue_element, float), (n,))
     kc = np.broadcast_to(np.asarray(k_cuff, float), (n,))
@@ -351,7 +351,8 @@ def rotation_from_config(lc: dict) -> np.ndarray:
 
 
 def loadcell_to_cuff(wrench_lc, lc: dict | None) -> np.ndarray:
-    """SPEC 5: F = s R F_lc, M = s (R M_lc + p x (R F_lc)), after unit conversion."""
+    """docs/model.md section 5: F = s R F_lc, M = s (R M_lc + p x (R F_lc)), after unit conversion.
+    """
     lc = lc or {}
     R = rotation_from_config(lc)
     p = np.array(lc.get("position", [0.0, 0.0, 0.0]), dtype=float)
@@ -368,7 +369,7 @@ def loadcell_to_cuff(wrench_lc, lc: dict | None) -> np.ndarray:
 
 # --------------------------------------------------------------------------- config dicts
 def resolve_stiffness(value, geom: Geometry, base_dir=None) -> np.ndarray:
-    """SPEC 6 value forms -> (n,) row-major array."""
+    """docs/model.md section 6 value forms -> (n,) row-major array."""
     nr, na = geom.n_rows, geom.n_angles
     if isinstance(value, (int, float)):
         return np.full(nr * na, float(value))

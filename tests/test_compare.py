@@ -1,6 +1,6 @@
 """`phri compare` as a library: reading, zeroing, RMSE, tables, figures and an end-to-end check.
 
-The end-to-end test recomputes everything from SPEC formulas with numpy (its own
+The end-to-end test recomputes everything from docs/model.md formulas with numpy (its own
 geometry, springs, preload, load-cell transform and active-set solver), so it
 does not share code with the implementation it checks.
 """
@@ -52,7 +52,7 @@ def _rot_x(deg):
 
 
 def spec_model(arm):
-    """Arrays of SPEC sections 1-3 for CFG, written out from the formulas."""
+    """Arrays of docs/model.md sections 1-3 for CFG, written out from the formulas."""
     g = CFG["geometry"]
     xs = np.array([g["rows"][r] for r in ROWS])
     R = np.array(g["radius"])
@@ -84,7 +84,7 @@ def spec_model(arm):
 
 
 def spec_forces(model, W):
-    """Normal forces at cuff wrench W (6,) by the active-set equations of SPEC section 4."""
+    """Normal forces at cuff wrench W (6,) by the active-set equations (docs/model.md section 4)."""
     k, b, Ks, d0 = model["k"], model["b"], model["Ks"], model["d0"]
     S = np.ones(len(k), dtype=bool)
     for _ in range(60):
@@ -447,13 +447,13 @@ def test_write_compare_writes_every_figure(cfg_path, tmp_path):
     def boom(*a, **k):
         raise RuntimeError("figure failed")
 
-    orig = figs.heatmap_figure
-    figs.heatmap_figure = boom
+    orig = figs.HeatmapRenderer.fill          # heat maps are drawn by a reused renderer
+    figs.HeatmapRenderer.fill = boom
     try:
         with pytest.raises(RuntimeError):
             write_compare(res, tmp_path / "out2")
     finally:
-        figs.heatmap_figure = orig
+        figs.HeatmapRenderer.fill = orig
     assert not (tmp_path / "out2").exists()
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".out2")]
     with pytest.raises(UsageError, match="contains the input"):
@@ -472,7 +472,7 @@ def test_end_to_end_against_independent_spec_computation(cfg_path, tmp_path):
     got_rmse = pd.read_csv(out / "rmse.csv")
     got_sum = pd.read_csv(out / "summary.csv")
 
-    # --- independent computation from the SPEC formulas
+    # --- independent computation from the docs/model.md formulas
     man = yaml.safe_load(manifest.read_text())
     models = {arm: spec_model(arm) for arm in ("rigid", "compliant")}
     want = []

@@ -1,4 +1,4 @@
-"""The config of SPEC section 6: safe loading, every value form, one-line errors."""
+"""The config of docs/model.md section 6: safe loading, every value form, one-line errors."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The physics of SPEC sections 1-5 against values derived by hand.
+"""The physics of docs/model.md sections 1-5 against values derived by hand.
 
 Every expected number below is derived in a comment from the spec, or computed
 by ``reference_model`` (an independent implementation), never read back from

@@ -1,4 +1,4 @@
-"""``phri simulate`` end to end with click's CliRunner (SPEC sections 7 and 8).
+"""``phri simulate`` end to end with click's CliRunner (docs/model.md sections 7 and 8).
 
 Expected forces come from ``reference_model`` (independent implementation of
 the spec); every bad input must give exit 1 (data) or 2 (usage), one line on

@@ -1,4 +1,4 @@
-"""Property tests of the equilibrium solver (SPEC section 4) with hypothesis.
+"""Property tests of the equilibrium solver (docs/model.md section 4) with hypothesis.
 
 Random geometries (1-4 rows, 2-12 angular locations, random start, step, width,
 radii and row widths), random stiffness maps, both strap models, both arms,

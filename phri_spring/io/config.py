@@ -1,4 +1,4 @@
-"""The YAML config of SPEC section 6: safe loading and validation.
+"""The YAML config of docs/model.md section 6: safe loading and validation.
 
 Loading never runs code (``yaml.SafeLoader``: a ``!!python/...`` tag is an
 error), unknown keys are rejected with the closest valid name, duplicate keys
@@ -25,8 +25,10 @@ from ..errors import ConfigError, ConfigTypeError, DataError
 
 __all__ = ["Config", "load_config", "config_from_dict", "resolve_stiffness", "LOG_COLUMNS"]
 
-#: the wrench-log columns of SPEC section 7
+#: the wrench-log columns of docs/model.md section 7
 LOG_COLUMNS = ("time", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
+#: where a column map carries the group of a TDMS or MAT log (``--group``, ``load_cell.group``)
+LOG_GROUP_KEY = "@group"
 
 
 # --------------------------------------------------------------------------- YAML
@@ -295,6 +297,7 @@ class _LoadCell(_Strict):
     force_unit: Literal["N", "lbf"] = "N"
     moment_unit: Literal["N*m", "N*mm"] = "N*m"
     columns: dict[str, str] = Field(default_factory=dict)
+    group: Optional[str] = None        # TDMS group / MAT struct of the log (lab files)
 
     @model_validator(mode="after")
     def _one_rotation(self):
@@ -536,7 +539,7 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = Fal
 
 def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, key="",
                       allow_inf: bool = False, base_dir: Optional[Path] = None) -> np.ndarray:
-    """Turn any stiffness value form of SPEC section 6 into an (n,) array [N/m], row-major.
+    """Turn any stiffness value form of docs/model.md section 6 into an (n,) array [N/m], row-major.
 
     Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
     rows x angles list, a mapping label -> value covering every element, or a
@@ -728,7 +731,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         indenter_diameter=float(root.tissue.indenter_diameter),
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
         loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),
-        force_unit=lc.force_unit, moment_unit=lc.moment_unit, log_columns=dict(lc.columns),
+        force_unit=lc.force_unit, moment_unit=lc.moment_unit,
+        log_columns={**lc.columns, **({LOG_GROUP_KEY: lc.group} if lc.group else {})},
         pain_threshold_kpa=float(root.interface.pain_threshold_kpa),
         shear_ratio=root.interface.shear_ratio, strap_tension=float(st.tension),
         strap_model=st.model,

@@ -1,4 +1,4 @@
-"""Experiment files for ``phri compare`` (SPEC section 7): the manifest and the trial tables.
+"""Experiment files for ``phri compare`` (docs/model.md section 7): manifest and trial tables.
 
 Manifest (YAML, loaded safely; unknown keys are an error)::
 
@@ -32,7 +32,7 @@ from typing import Optional, Union
 import numpy as np
 
 from ..errors import ConfigError, ConfigTypeError, DataError
-from .config import LOG_COLUMNS, load_yaml
+from .config import LOG_COLUMNS, LOG_GROUP_KEY, load_yaml
 
 __all__ = ["TrialSpec", "Manifest", "TrialData", "load_manifest", "read_trial",
            "read_experiment", "WRENCH_COLUMNS", "DEFAULT_BASELINE"]
@@ -235,10 +235,14 @@ def _header(text: str, path: Path) -> list:
                         file=path) from None
 
 
-def _read_table(path: Path):
-    """The trial table as a DataFrame of text (CSV) or its own types (Parquet)."""
+def _read_table(path: Path, group: Optional[str] = None, time_name: str = "time"):
+    """The trial table as a DataFrame of text (CSV) or its own types (Parquet, TDMS, MAT)."""
     import pandas as pd
 
+    if path.suffix.lower() in (".tdms", ".mat"):
+        from .labfiles import read_lab_frame
+
+        return read_lab_frame(path, group, time_name=time_name), False
     from .textio import read_text
 
     if path.suffix.lower() in (".parquet", ".pq"):
@@ -327,7 +331,8 @@ def read_trial(spec: Union[TrialSpec, str, Path], labels, *, baseline: Optional[
     labels = tuple(labels)
     if not path.is_file():
         raise DataError("file not found; expected a trial table (CSV)", file=path)
-    df, is_csv = _read_table(path)
+    df, is_csv = _read_table(path, (columns or {}).get(LOG_GROUP_KEY),
+                             (columns or {}).get("time", "time"))
 
     rename = {v: k for k, v in (columns or {}).items() if k in LOG_COLUMNS}
     if rename:

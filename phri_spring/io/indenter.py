@@ -1,4 +1,4 @@
-"""Indenter recordings in, stiffness tables out (SPEC section 7).
+"""Indenter recordings in, stiffness tables out (docs/model.md section 7).
 
 Input layouts
 -------------
@@ -49,7 +49,7 @@ _UNITS = {"mm": 1e-3, "m": 1.0}
 _NAME_HINT = ("expected <label>_<trial>.csv, e.g. B3_2.csv (row letters, angle index, "
               "underscore, trial number)")
 
-#: the first columns of the fit CSV, in order (SPEC section 7)
+#: the first columns of the fit CSV, in order (docs/model.md section 7)
 STIFFNESS_COLUMNS = ("location", "row", "angle_index", "stiffness_N_per_m", "std_N_per_m",
                      "n_trials")
 
@@ -482,7 +482,7 @@ def read_indenter(path, displacement_unit: str = "mm", skip_bad: bool = False
 
 
 def write_stiffness_csv(table, path, float_format: str = "%.8g", atomic: bool = True) -> Path:
-    """Write the fit table (SPEC section 7 columns first) atomically.
+    """Write the fit table (docs/model.md section 7 columns first) atomically.
 
     Parameters
     ----------

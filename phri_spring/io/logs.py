@@ -1,4 +1,4 @@
-"""Wrench logs in, contact forces out (SPEC section 7), CSV or Parquet.
+"""Wrench logs in, contact forces out (docs/model.md section 7), CSV or Parquet.
 
 Reading and writing go through pyarrow: multi-threaded C++ CSV parsing and
 writing, Parquet, and streaming in chunks so hour-long logs fit in bounded
@@ -26,11 +26,16 @@ _FORMATS = {".csv": "csv", ".txt": "csv", ".parquet": "parquet", ".pq": "parquet
 
 
 def table_format(path, *, role: str = "input", option: Optional[str] = None) -> str:
-    """``'csv'`` or ``'parquet'`` from a file's extension."""
+    """``'csv'`` or ``'parquet'`` from a file's extension (inputs also ``'tdms'``, ``'mat'``)."""
     ext = Path(path).suffix.lower()
     fmt = _FORMATS.get(ext)
+    if fmt is None and role == "input":
+        from .labfiles import LAB_FORMATS
+
+        fmt = LAB_FORMATS.get(ext)
     if fmt is None:
-        msg = f"unknown file type {ext or '(none)'!r}; expected .csv or .parquet"
+        msg = f"unknown file type {ext or '(none)'!r}; expected .csv or .parquet" + \
+            (", .tdms or .mat" if role == "input" else "")
         if role == "output":
             raise UsageError(msg, file=path, key=option)
         raise DataError(msg, file=path)
@@ -138,16 +143,18 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
     Parameters
     ----------
     path : str or path-like
-        CSV (``.csv``, ``.txt``) or Parquet (``.parquet``, ``.pq``) file.
+        CSV (``.csv``, ``.txt``) or Parquet (``.parquet``, ``.pq``) file, or a
+        lab file (``.tdms``, ``.mat``: see :mod:`phri_spring.io.labfiles`).
     columns : dict, optional
-        Map from spec names (``time``, ``Fx`` ... ``Mz``) to the log's names.
+        Map from spec names (``time``, ``Fx`` ... ``Mz``) to the log's names
+        (lab files: also the group, under ``LOG_GROUP_KEY``).
     chunk_rows : int
         Rows per chunk (CSV chunks follow pyarrow's blocks and are approximate).
 
     Yields
     ------
     WrenchChunk
-        time [s] and wrench in the log's units (SPEC section 5 converts).
+        time [s] and wrench in the log's units (docs/model.md section 5 converts).
 
     Raises
     ------
@@ -163,6 +170,11 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
     if path.is_dir():
         raise DataError("is a folder; expected a wrench log file", file=path)
     total = 0
+    if fmt in ("tdms", "mat"):
+        from .labfiles import iter_lab_log
+
+        yield from iter_lab_log(path, columns, chunk_rows=chunk_rows, wanted=wanted)
+        return
     if fmt == "csv":
         import pyarrow.csv as pacsv
 
@@ -343,10 +355,14 @@ def read_wrench_log(path, columns: Optional[dict] = None):
             np.concatenate([c.wrench for c in chunks]))
 
 
-def count_rows(path) -> Optional[int]:
-    """Number of data rows (fast newline count for CSV, metadata for Parquet)."""
+def count_rows(path, group: Optional[str] = None) -> Optional[int]:
+    """Number of data rows (fast newline count for CSV, metadata for Parquet and TDMS)."""
     path = Path(path)
     try:
+        if table_format(path) in ("tdms", "mat"):
+            from .labfiles import lab_row_count
+
+            return lab_row_count(path, group)
         if table_format(path) == "parquet":
             import pyarrow.parquet as pq
 
@@ -415,7 +431,7 @@ def _arrow_strings(names):
 
 
 class ForcesWriter:
-    """Write the forces table (SPEC section 7) in chunks, CSV or Parquet by extension.
+    """Write the forces table (docs/model.md section 7) in chunks, CSV or Parquet by extension.
 
     Columns: ``time``, one per element label [N], then extra columns.
 

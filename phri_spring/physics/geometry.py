@@ -1,4 +1,4 @@
-"""Element geometry of a cylindrical cuff (SPEC section 1).
+"""Element geometry of a cylindrical cuff (docs/model.md section 1).
 
 Cuff frame: origin on the arm axis, x along the arm axis (proximal to distal);
 an angle theta is measured in the y-z plane from +y toward +z. Elements are
@@ -142,7 +142,7 @@ def _per_row(value, n_rows: int, name: str) -> np.ndarray:
 def cuff_geometry(row_x, radius, row_width, angle_start_deg: float, angle_step_deg: float,
                   angle_count: int, angle_width_deg: float | None = None,
                   row_labels=None) -> CuffGeometry:
-    """Build the element geometry of SPEC section 1.
+    """Build the element geometry of docs/model.md section 1.
 
     Parameters
     ----------

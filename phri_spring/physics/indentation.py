@@ -1,4 +1,4 @@
-"""Indenter force-displacement analysis (SPEC section 7; paper sections II-B and IV-A).
+"""Indenter force-displacement analysis (docs/model.md section 7; paper sections II-B and IV-A).
 
 A flat cylindrical indenter is pushed by hand into the arm while a force sensor
 and a linear encoder are logged. The tissue stiffness at that location is the

@@ -1,4 +1,4 @@
-"""Load-cell wrench to cuff-frame wrench (SPEC section 5).
+"""Load-cell wrench to cuff-frame wrench (docs/model.md section 5).
 
 The log holds the wrench measured by the load cell, in its own axes, about its
 own origin. With rotation R (v_cuff = R v_lc), origin position p in the cuff

@@ -19,7 +19,7 @@ def zero_on(values, baseline) -> np.ndarray:
 
     Measured loads are zeroed on the measured loads of the baseline condition,
     simulated loads on the simulated loads of the baseline condition, each on
-    its own side (SPEC section 7).
+    its own side (docs/model.md section 7).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Strap pretension (SPEC section 3)."""
+"""Strap pretension (docs/model.md section 3)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Springs of the interface (SPEC section 2).
+"""Springs of the interface (docs/model.md section 2).
 
 Series chain per element: bone - tissue spring - skin - cuff spring - rigid
 robot, plus a bonded tangential (shear) spring. The contact law of the normal
@@ -110,7 +110,7 @@ class ContactLaw(Protocol):
 
 
 class LinearContact:
-    """Linear compression-only spring: f = k [g]_+ (SPEC section 2)."""
+    """Linear compression-only spring: f = k [g]_+ (docs/model.md section 2)."""
 
     is_linear = True
 

@@ -1,6 +1,6 @@
 """``phri compare`` as library calls: rigid- vs compliant-arm predictions against a sensorized cuff.
 
-Method (SPEC section 7, paper sections III-C and IV-B):
+Method (docs/model.md section 7, paper sections III-C and IV-B):
 
 1. Every trial table is reduced to one mean wrench and one mean load per
    element for each condition (all rows of that condition).
@@ -48,9 +48,9 @@ __all__ = ["compare", "write_compare", "CompareResult", "TrialComparison", "Comp
 
 #: the arm models compared by default, in the paper's order
 DEFAULT_ARMS = ("rigid", "compliant")
-#: columns of rmse.csv (SPEC section 8), then load_N
+#: columns of rmse.csv (docs/model.md section 8), then load_N
 RMSE_COLUMNS = ("experiment", "direction", "condition", "trial", "arm", "rmse_N")
-#: columns of summary.csv (SPEC section 8), then load_N
+#: columns of summary.csv (docs/model.md section 8), then load_N
 SUMMARY_COLUMNS = ("experiment", "direction", "condition", "arm", "mean_rmse_N", "se_rmse_N",
                    "n_trials")
 
@@ -422,6 +422,14 @@ def _unique(name: str, used: set) -> str:
     return out
 
 
+def _scale(heat: dict) -> float:
+    """The colour scale of a heat-map job: its largest |value| [N]."""
+    vals = np.concatenate([np.ravel(heat["measured"])] +
+                          [np.ravel(v) for v in heat["simulated"].values()])
+    vals = vals[np.isfinite(vals)]
+    return float(np.max(np.abs(vals))) if vals.size else 0.0
+
+
 def _heat_title(tc: TrialComparison, j: int, cfg: Config) -> str:
     s = tc.spec
     zw = tc.zeroed_wrench[j]
@@ -433,7 +441,7 @@ def _heat_title(tc: TrialComparison, j: int, cfg: Config) -> str:
 
 
 def write_compare(result: CompareResult, outdir, *, figures: bool = True,
-                  dpi: Optional[int] = None) -> CompareOutputs:
+                  dpi: Optional[int] = None, workers: Optional[int] = None) -> CompareOutputs:
     """Write the tables, figures and report of a comparison into ``outdir``.
 
     Files: ``rmse.csv``, ``summary.csv``, ``loads.csv``, ``conditions.csv``,
@@ -443,7 +451,9 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
     ``wrench/<experiment>_<direction>_<trial>.png`` (Fig. 8a).
 
     Everything is written into a temporary folder beside ``outdir`` that
-    replaces it at the end: a failed run leaves nothing behind.
+    replaces it at the end: a failed run leaves nothing behind. The figures are
+    drawn on ``workers`` processes (default: the available cores; they are
+    independent, and the images do not depend on the number of processes).
 
     Raises
     ------
@@ -451,8 +461,7 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
         If ``outdir`` is (or contains) an input, is a file, or its parent folder
         does not exist.
     """
-    from ..reports.compare_figures import (DEFAULT_DPI, heatmap_figure, rmse_bars_figure,
-                                           save_figure, wrench_figure)
+    from ..reports.compare_figures import DEFAULT_DPI, render_figures
 
     dpi = DEFAULT_DPI if dpi is None else int(dpi)
     outdir = Path(outdir)
@@ -474,9 +483,12 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
         csv(result.loads, "loads.csv")
         csv(result.conditions, "conditions.csv")
         if figures:
+            local, jobs = [], []
             if len(result.summary):
-                fig = rmse_bars_figure(result.summary, result.rmse, arms=result.arms)
-                save_figure(fig, tmp / "rmse_bars.png", dpi)
+                # drawn here: its arguments are DataFrames (not worth pickling)
+                local.append(("bars", tmp / "rmse_bars.png",
+                              {"summary": result.summary, "rmse": result.rmse,
+                               "arms": result.arms}))
                 written.append(outdir / "rmse_bars.png")
             (tmp / "heatmaps").mkdir()
             (tmp / "wrench").mkdir()
@@ -485,26 +497,33 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
                 s = tc.spec
                 wname = _unique(_slug(s.experiment, s.direction, s.trial), used_w) + ".png"
                 d = tc.data
-                fig = wrench_figure(d.time, d.wrench_series, d.condition_series,
-                                    title=f"{s.experiment} {s.direction}, trial {s.trial}: "
-                                          "load-cell wrench",
-                                    force_unit=cfg.force_unit, moment_unit=cfg.moment_unit)
-                save_figure(fig, tmp / "wrench" / wname, dpi)
+                jobs.append(("wrench", tmp / "wrench" / wname,
+                             {"time": d.time, "wrench": d.wrench_series,
+                              "conditions": d.condition_series,
+                              "title": f"{s.experiment} {s.direction}, trial {s.trial}: "
+                                       "load-cell wrench",
+                              "force_unit": cfg.force_unit, "moment_unit": cfg.moment_unit}))
                 written.append(outdir / "wrench" / wname)
                 heat = []
                 for j, c in enumerate(tc.conditions):
                     if j == tc.baseline_index:
                         continue
                     hname = _unique(_slug(s.experiment, s.direction, s.trial, c), used_h) + ".png"
-                    fig = heatmap_figure(tc.measured[j],
-                                         {a: tc.simulated[a][j] for a in result.arms},
-                                         row_labels=cfg.row_labels, n_angles=cfg.angle_count,
-                                         title=_heat_title(tc, j, cfg),
-                                         rmse={a: float(tc.rmse[a][j]) for a in result.arms})
-                    save_figure(fig, tmp / "heatmaps" / hname, dpi)
+                    jobs.append(("heatmap", tmp / "heatmaps" / hname,
+                                 {"measured": tc.measured[j],
+                                  "simulated": {a: tc.simulated[a][j] for a in result.arms},
+                                  "row_labels": tuple(cfg.row_labels),
+                                  "n_angles": cfg.angle_count,
+                                  "title": _heat_title(tc, j, cfg),
+                                  "rmse": {a: float(tc.rmse[a][j]) for a in result.arms}}))
                     written.append(outdir / "heatmaps" / hname)
                     heat.append((c, f"heatmaps/{hname}"))
                 fig_index.append((s, f"wrench/{wname}", heat))
+            # this process draws from the front of the list, the workers from the back: heat
+            # maps in order of their colour scale keep the figures sharing a layout together
+            jobs.sort(key=lambda j: (j[0] == "heatmap", _scale(j[2]) if j[0] == "heatmap"
+                                     else 0.0))
+            render_figures(jobs, dpi, workers=workers, local=local)
         (tmp / "report.md").write_text(_report(result, fig_index, figures), encoding="utf-8")
         written.append(outdir / "report.md")
     return CompareOutputs(outdir=outdir, files=written)

@@ -50,7 +50,7 @@ class FitStiffnessResult:
     skipped : list of SkippedTrial
         Trials left out with ``skip_bad_trials``.
     table : pandas.DataFrame
-        The fit CSV (SPEC section 7 columns, then :data:`QUALITY_COLUMNS`).
+        The fit CSV (docs/model.md section 7 columns, then :data:`QUALITY_COLUMNS`).
     trials_table : pandas.DataFrame
         One row per trial.
     warnings : list of str
@@ -318,7 +318,7 @@ def write_fit(result: FitStiffnessResult, output, *, plots=None, trials_csv=None
     ----------
     result : FitStiffnessResult
     output : str or Path
-        The fit CSV (SPEC section 7 columns, then :data:`QUALITY_COLUMNS`).
+        The fit CSV (docs/model.md section 7 columns, then :data:`QUALITY_COLUMNS`).
     plots : str or Path, optional
         Folder for :data:`PLOT_FILES`.
     trials_csv : str or Path, optional
