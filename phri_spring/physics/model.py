@@ -172,7 +172,7 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
                 strap_tension: float = 15.0, strap_model: str = "hoop",
                 handle_angles_deg=None, handle_axial_position: float | None = None,
                 pain_threshold_kpa: float = 120.0) -> SpringModel:
-    """Assemble the spring network of SPEC sections 2 and 3.
+    """Assemble the spring network of docs/model.md sections 2 and 3.
 
     Parameters
     ----------

@@ -167,7 +167,7 @@ def _scale_per_patch(K: np.ndarray, s: np.ndarray, n: int) -> np.ndarray:
 
 
 def cuff_wrench(cfg: Config, wrench_lc) -> np.ndarray:
-    """Load-cell readings (log units) -> wrench on the cuff W (m, 6) [N, N*m] (SPEC section 5)."""
+    """Load-cell readings (log units) -> wrench on the cuff W (m, 6) [N, N*m] (docs/model.md section 5)."""
     return loadcell_to_cuff(wrench_lc, cfg.loadcell_rotation, cfg.loadcell_position,
                             cfg.loadcell_sign, FORCE_UNITS[cfg.force_unit],
                             MOMENT_UNITS[cfg.moment_unit])

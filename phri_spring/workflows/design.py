@@ -107,7 +107,7 @@ def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
     Parameters
     ----------
     files : sequence of path
-        Wrench logs (CSV or Parquet, SPEC section 7), in the config's units.
+        Wrench logs (CSV or Parquet, docs/model.md section 7), in the config's units.
     columns : dict, optional
         Column map (the config's ``load_cell.columns``).
     force_tol, moment_tol : float

@@ -59,7 +59,7 @@ class Baseline:
 
 
 def parse_baseline(text: Union[str, Baseline, None]) -> Baseline:
-    """Parse ``none | zero | first:SECONDS | window:T0:T1`` (SPEC section 8).
+    """Parse ``none | zero | first:SECONDS | window:T0:T1`` (docs/model.md section 8).
 
     Raises
     ------
@@ -340,7 +340,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     ----------
     config : Config or path
     log : path
-        Wrench log, CSV or Parquet (SPEC section 7).
+        Wrench log, CSV or Parquet (docs/model.md section 7).
     output : path
         Forces file; CSV or Parquet by its extension. Written to a temporary file
         beside it and renamed at the end: a failed run leaves nothing behind.
