@@ -271,7 +271,6 @@ def _nanmean(values) -> float:
     return float(v.mean()) if v.size else float("nan")
 
 
-
 def fit_line(x, y) -> tuple[float, float, float]:
     """Least-squares line ``y = slope * x + intercept`` and its R^2.
 

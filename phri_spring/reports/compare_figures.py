@@ -124,8 +124,6 @@ def rmse_bars_figure(summary, rmse=None, *, arms: Sequence[str] = ("rigid", "com
     return fig
 
 
-
-
 def wrench_figure(time, wrench, conditions, *, title: str = "",
                   force_unit: str = "N", moment_unit: str = "N*m") -> Figure:
     """Fig. 8a: the load-cell wrench over time with the condition windows shaded.
@@ -226,7 +224,6 @@ class WrenchRenderer(_ReusedFigure):
             self.suptitle.set_visible(bool(title))
             self.suptitle.set_in_layout(bool(title))
         return self.fig
-
 
 
 def save_figure(fig: Figure, path, dpi: int = DEFAULT_DPI) -> Path:

@@ -20,7 +20,6 @@ from .figure_base import ARM_NAMES, _ReusedFigure, _style, write_png
 __all__ = ["heatmap_figure", "HeatmapRenderer"]
 
 
-
 def heatmap_figure(measured, simulated: dict, *, row_labels: Sequence[str], n_angles: int,
                    title: str = "", rmse: Optional[dict] = None, cmap: str = "RdBu_r",
                    value_format: str = "{:.1f}") -> Figure:
@@ -59,7 +58,6 @@ def heatmap_figure(measured, simulated: dict, *, row_labels: Sequence[str], n_an
     renderer = HeatmapRenderer(1 + len(simulated), row_labels=row_labels, n_angles=n_angles,
                                cmap=cmap, value_format=value_format)
     return renderer.fill(measured, simulated, title=title, rmse=rmse)
-
 
 
 class HeatmapRenderer(_ReusedFigure):

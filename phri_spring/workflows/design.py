@@ -244,6 +244,7 @@ def build_designs(study: Study, base: Config) -> tuple:
         configs.append(cfg)
     return values, configs
 
+
 # --------------------------------------------------------------------------- running
 @dataclass
 class StudyResult:
