@@ -18,7 +18,8 @@ Two products:
 
 Everything is linear in Young's modulus: the matrices are built for E = 1 Pa
 and scaled. scikit-fem is an optional dependency (extra ``fe``), imported only
-inside the functions that need it.
+inside the functions that need it. The mesh (grading, patch facets, the periodic
+seam) is built in :mod:`phri_spring.physics.fe_mesh`.
 """
 
 from __future__ import annotations
@@ -32,7 +33,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ..errors import UsageError
+from .fe_mesh import (FE_EXTRA_HINT, _build_mesh, _check_material, _graded,  # noqa: F401
+                      _periodic_map, _reduce_matrix, _reduce_rows, _single_radius, _skfem)
 
 __all__ = [
     "FE_EXTRA_HINT",
@@ -51,8 +53,6 @@ __all__ = [
     "sneddon_punch_stiffness",
 ]
 
-FE_EXTRA_HINT = "the coupled model's built-in FE needs scikit-fem: pip install -e .[fe]"
-
 #: Mesh level shipped by default: level L puts L x L quadratic elements on each patch.
 DEFAULT_LEVEL = 3
 #: Tissue modelled beyond each axial edge of the cuff, in tissue thicknesses.
@@ -60,340 +60,12 @@ DEFAULT_LENGTH_FACTOR = 6.0
 #: Radius of the paper's 9 mm flat indenter [m].
 PUNCH_RADIUS = 0.0045
 
-_RIGID_TOL = 1e-9
-# mesh grading (see docs/coupled-fe.md, "The mesh"): element sizes in units of the
-# patch element size h = patch width / level
-_FREE_SIZE = 1.5       # free skin between/around the patches, along the circumference
-_RADIAL_SIZE = 1.5     # a layer thicker than 1.5 patch widths gets more radial elements
-_AXIAL_GROWTH = 1.6    # growth ratio of the elements beyond the cuff's axial edges
-_FREE_GROWTH = 1.6     # growth ratio of the elements over free skin between patches
-_EDGE_GRADING = 2.0    # size ratio of neighbouring elements in a patch, toward a free edge
-_RADIAL_GROWTH = 1.5   # size ratio of radial elements, from the skin inward
-
-
-def _skfem():
-    """Import scikit-fem lazily; a one-line :class:`UsageError` when the extra is missing."""
-    try:
-        import skfem  # noqa: F401
-        from skfem import (Basis, BilinearForm, ElementHex2, ElementQuad2, ElementVector,
-                           FacetBasis, LinearForm, MeshHex, MeshHex2, MeshQuad, asm)
-        from skfem.models.elasticity import linear_elasticity
-    except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
-        raise UsageError(FE_EXTRA_HINT) from None
-    return dict(Basis=Basis, BilinearForm=BilinearForm, ElementHex2=ElementHex2,
-                ElementQuad2=ElementQuad2, ElementVector=ElementVector, FacetBasis=FacetBasis,
-                LinearForm=LinearForm, MeshHex=MeshHex, MeshHex2=MeshHex2, MeshQuad=MeshQuad,
-                asm=asm, linear_elasticity=linear_elasticity)
-
-
-def _check_material(thickness=None, poisson_ratio=None, young_modulus=None, radius=None):
-    if young_modulus is not None:
-        E = float(young_modulus)
-        if not (math.isfinite(E) and E > 0):
-            raise ValueError("young_modulus: expected a finite value > 0 Pa, "
-                             f"got {young_modulus!r}")
-    if poisson_ratio is not None:
-        nu = float(poisson_ratio)
-        if not (math.isfinite(nu) and -1.0 < nu < 0.5):
-            raise ValueError(f"poisson_ratio: expected a value in (-1, 0.5), got {poisson_ratio!r}")
-    if thickness is not None:
-        t = float(thickness)
-        if not (math.isfinite(t) and t > 0):
-            raise ValueError(f"thickness: expected a finite value > 0 m, got {thickness!r}")
-        if radius is not None and not t < radius:
-            raise ValueError(f"thickness: expected less than the cuff radius {radius} m, "
-                             f"got {thickness!r}")
-
 
 def _lame(E, nu):
     return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
 
 
-# --------------------------------------------------------------------------- mesh
-
-@dataclass
-class _Intervals:
-    """Breakpoints of one coordinate, which interval each patch/row covers."""
-
-    nodes: np.ndarray      # element boundaries, increasing
-    lo: np.ndarray         # per item: start of its interval
-    hi: np.ndarray         # per item: end of its interval
-
-
-def _patch_sizes(width, level, free_lo, free_hi):
-    """Sizes of the ``level`` elements across one patch, graded toward free skin edges.
-
-    At a patch edge bordering free skin the bonded plate's traction is singular; the
-    elements there shrink geometrically (ratio ``_EDGE_GRADING``) toward that edge.
-    """
-    k = np.arange(level)
-    if free_lo and free_hi:
-        e = np.minimum(k, level - 1 - k)
-    elif free_lo:
-        e = k
-    elif free_hi:
-        e = level - 1 - k
-    else:
-        e = np.zeros(level)
-    sz = _EDGE_GRADING ** e
-    return sz / sz.sum() * width
-
-
-def _gap_sizes(length, h_lo, h_hi, h_max):
-    """Element sizes over free skin of ``length``, growing from h_lo / h_hi at its ends."""
-    left, right = [], []
-    sl, sr, tot = h_lo, h_hi, 0.0
-    while True:
-        if sl <= sr:
-            if tot + sl > length * (1 + 1e-9):
-                break
-            left.append(sl)
-            tot += sl
-            sl = min(sl * _FREE_GROWTH, h_max)
-        else:
-            if tot + sr > length * (1 + 1e-9):
-                break
-            right.append(sr)
-            tot += sr
-            sr = min(sr * _FREE_GROWTH, h_max)
-    sizes = np.array(left + right[::-1]) if (left or right) else np.array([length])
-    return sizes / sizes.sum() * length
-
-
-def _line_nodes(lo, hi, level, h_max, start, end, start_free, end_free):
-    """Element boundaries over [start, end] for sorted, non-overlapping patch intervals.
-
-    ``start_free`` / ``end_free``: the first / last patch's outer edge borders free skin
-    even where it coincides with ``start`` / ``end``. Returns the nodes and the sizes of
-    the elements at the first patch's low edge and the last patch's high edge.
-    """
-    m = len(lo)
-    nodes = [start]
-    cur, cur_h = start, h_max
-    first_edge_h = last_edge_h = None
-    for k in range(m):
-        gap_before = lo[k] - cur
-        gap_after = (lo[k + 1] if k + 1 < m else end) - hi[k]
-        free_lo = gap_before > 1e-9 or (k == 0 and start_free)
-        free_hi = gap_after > 1e-9 or (k == m - 1 and end_free)
-        ps = _patch_sizes(hi[k] - lo[k], level, free_lo, free_hi)
-        if gap_before > 1e-9:
-            gs = _gap_sizes(gap_before, cur_h, ps[0], h_max)
-            nodes.extend(cur + np.cumsum(gs)[:-1])
-            nodes.append(lo[k])
-        nodes.extend(lo[k] + np.cumsum(ps)[:-1])
-        nodes.append(hi[k])
-        if k == 0:
-            first_edge_h = ps[0]
-        last_edge_h = ps[-1]
-        cur, cur_h = hi[k], ps[-1]
-    if end - cur > 1e-9:
-        gs = _gap_sizes(end - cur, cur_h, h_max, h_max)
-        nodes.extend(cur + np.cumsum(gs)[:-1])
-        nodes.append(end)
-    return np.array(nodes), first_edge_h, last_edge_h
-
-
-def _angular_breakpoints(theta, span, level):
-    """Element boundaries in theta over one full turn [theta_seam, theta_seam + 2 pi].
-
-    Parameters
-    ----------
-    theta, span : ndarray, shape (m,)
-        Centre and width of the m distinct angular locations [rad].
-    """
-    two_pi = 2 * np.pi
-    order = np.argsort(np.mod(theta, two_pi))
-    c = np.mod(theta[order], two_pi)
-    s = span[order]
-    lo, hi = c - s / 2, c + s / 2
-    total = float(np.sum(s))
-    if total > two_pi * (1 + 1e-12):
-        raise ValueError(f"the angular locations cover {np.degrees(total):.6g} deg; "
-                         "expected at most 360 deg")
-    m = len(c)
-    for k in range(m):
-        nxt = lo[(k + 1) % m] + (two_pi if k == m - 1 else 0.0)
-        if hi[k] > nxt + 1e-9:
-            raise ValueError("cuff patches overlap in angle; expected patches that tile or "
-                             "leave gaps (angle width <= angle step)")
-    gaps = np.array([lo[(k + 1) % m] + (two_pi if k == m - 1 else 0.0) - hi[k]
-                     for k in range(m)])
-    gaps[np.abs(gaps) < 1e-9] = 0.0
-    h_max = _FREE_SIZE * float(np.min(s)) / level
-    # seam: the middle of the largest gap (or a patch edge when the patches close the circle)
-    kg = int(np.argmax(gaps))
-    seam = hi[kg] + gaps[kg] / 2
-    # patches in walking order from the seam, unwrapped to [seam, seam + 2 pi]
-    idx = [(kg + 1 + i) % m for i in range(m)]
-    a = np.array([lo[k] for k in idx])
-    a = seam + np.mod(a - seam + 1e-9, two_pi) - 1e-9
-    b = a + s[idx]
-    nodes, _, _ = _line_nodes(a, b, level, h_max, seam, seam + two_pi, False, False)
-    nodes[-1] = seam + two_pi
-    lo_out = np.empty(m)
-    hi_out = np.empty(m)
-    lo_out[order[idx]], hi_out[order[idx]] = a, b
-    return _Intervals(nodes, lo_out, hi_out)
-
-
-def _graded(length, h0, ratio):
-    """Node positions (0, length] of elements h0, h0 ratio, h0 ratio^2, ...
-
-    The sizes do not depend on ``length`` except for the last element, which ends
-    exactly at ``length``, so that meshes of different lengths agree near the start.
-    """
-    pos = []
-    h, tot = h0, 0.0
-    while tot + h < length * (1 - 1e-9):
-        tot += h
-        pos.append(tot)
-        h *= ratio
-    pos.append(length)
-    return np.array(pos)
-
-
-def _axial_breakpoints(x, width, level, extension, ratio=_AXIAL_GROWTH):
-    order = np.argsort(x)
-    lo, hi = x[order] - width[order] / 2, x[order] + width[order] / 2
-    for k in range(len(lo) - 1):
-        if hi[k] > lo[k + 1] + 1e-9:
-            raise ValueError("cuff rows overlap along the arm; expected rows that tile or "
-                             "leave gaps (row distance >= row width)")
-    h_max = _FREE_SIZE * float(np.min(width)) / level
-    inner, h_first, h_last = _line_nodes(lo, hi, level, h_max, lo[0], hi[-1], True, True)
-    ext_lo = _graded(extension, h_first, ratio)
-    ext_hi = _graded(extension, h_last, ratio)
-    nodes = np.concatenate([inner[0] - ext_lo[::-1], inner, inner[-1] + ext_hi])
-    lo_out, hi_out = np.empty(len(x)), np.empty(len(x))
-    lo_out[order], hi_out[order] = lo, hi
-    return _Intervals(nodes, lo_out, hi_out)
-
-
-@dataclass
-class _TissueMesh:
-    mesh: object              # MeshHex2 in Cartesian coordinates
-    comp: np.ndarray          # (3, ndofloc): (x, theta, r) of every mesh node
-    radius: float
-    thickness: float
-    patch_facets: list        # per patch: facet indices on the skin under it
-    cuff_facets: np.ndarray
-    x_range: tuple
-
-
-def _distinct_angles(geometry):
-    th = np.asarray(geometry.theta, float)
-    sp_ = np.asarray(geometry.span, float)
-    key = np.round(np.column_stack([np.mod(th, 2 * np.pi), sp_]), 12)
-    uniq, inv = np.unique(key, axis=0, return_inverse=True)
-    return uniq[:, 0], uniq[:, 1], inv.ravel()
-
-
-def _distinct_rows(geometry):
-    key = np.round(np.column_stack([geometry.x, geometry.row_width]), 12)
-    uniq, inv = np.unique(key, axis=0, return_inverse=True)
-    return uniq[:, 0], uniq[:, 1], inv.ravel()
-
-
-def _single_radius(geometry):
-    R = np.asarray(geometry.radius, float)
-    if R.size == 0 or np.ptp(R) > 1e-12 * np.max(np.abs(R)):
-        raise ValueError("the coupled tissue model needs one cuff radius for all rows; "
-                         f"got radii {sorted(set(R.tolist()))} m")
-    return float(R[0])
-
-
-def _radial_nodes(R, t, n_r, ratio=1.0):
-    if ratio == 1.0:
-        return np.linspace(R - t, R, n_r + 1)
-    # finer at the skin
-    sizes = ratio ** np.arange(n_r)[::-1]
-    sizes = sizes / sizes.sum() * t
-    return np.concatenate([[R - t], R - t + np.cumsum(sizes)])
-
-
-def _build_mesh(geometry, thickness, level, length_factor):
-    sk = _skfem()
-    R = _single_radius(geometry)
-    _check_material(thickness=thickness, radius=R)
-    level = int(level)
-    if level < 1:
-        raise ValueError(f"level: expected an integer >= 1, got {level}")
-    t = float(thickness)
-    th_c, th_s, th_inv = _distinct_angles(geometry)
-    xr, wr, x_inv = _distinct_rows(geometry)
-    ang = _angular_breakpoints(th_c, th_s, level)
-    ext = float(length_factor) * t
-    ax = _axial_breakpoints(xr, wr, level, ext)
-    h_surf = min(float(np.min(wr)), R * float(np.min(th_s))) / level
-    n_r = max(2, level) * max(1, math.ceil(t / (_RADIAL_SIZE * level * h_surf) - 1e-9))
-    rad = _radial_nodes(R, t, n_r, _RADIAL_GROWTH)
-    m1 = sk["MeshHex"].init_tensor(ax.nodes, ang.nodes, rad)
-    m2c = sk["MeshHex2"].from_mesh(m1)
-    comp = m2c.doflocs
-    xx, th, rr = comp
-    cart = np.vstack([xx, rr * np.cos(th), rr * np.sin(th)])
-    mesh = sk["MeshHex2"](cart, m2c.t)
-    # skin facets: all four vertices on r = R
-    fr = m1.p[2][m1.facets]
-    on_skin = np.all(np.abs(fr - R) <= _RIGID_TOL * R, axis=0)
-    fx = m1.p[0][m1.facets].mean(axis=0)
-    ft = m1.p[1][m1.facets].mean(axis=0)
-    patch_facets = []
-    for e in range(geometry.n):
-        a = th_inv[e]
-        r_ = x_inv[e]
-        sel = (on_skin & (ft > ang.lo[a]) & (ft < ang.hi[a])
-               & (fx > ax.lo[r_]) & (fx < ax.hi[r_]))
-        patch_facets.append(np.nonzero(sel)[0])
-    cuff = np.unique(np.concatenate(patch_facets))
-    return _TissueMesh(mesh=mesh, comp=comp, radius=R, thickness=t, patch_facets=patch_facets,
-                       cuff_facets=cuff, x_range=(float(ax.nodes[0]), float(ax.nodes[-1])))
-
-
 # ----------------------------------------------------------------- assembly + solve
-
-def _periodic_map(comp, thickness_tol):
-    """Global-dof renumbering that ties the seam theta_hi onto theta_lo.
-
-    Returns
-    -------
-    g : ndarray, shape (3 * nnodes,)
-        Reduced index of every vector dof (node k, component c -> 3 k + c).
-    n_red : int
-    """
-    x, th, r = comp
-    th_lo, th_hi = th.min(), th.max()
-    tol = 1e-9 * max(1.0, abs(th_hi))
-    lo = np.nonzero(np.abs(th - th_lo) <= tol)[0]
-    hi = np.nonzero(np.abs(th - th_hi) <= tol)[0]
-    key = lambda ix: np.lexsort((np.round(r[ix] / thickness_tol, 6),  # noqa: E731
-                                 np.round(x[ix] / thickness_tol, 6)))
-    lo, hi = lo[key(lo)], hi[key(hi)]
-    if len(lo) != len(hi) or not (np.allclose(x[lo], x[hi], atol=1e-9 * thickness_tol * 1e3)
-                                  and np.allclose(r[lo], r[hi])):
-        raise RuntimeError("seam nodes of the tissue mesh do not match")  # pragma: no cover
-    nn = comp.shape[1]
-    node_map = np.arange(nn)
-    node_map[hi] = lo
-    keep = np.ones(nn, bool)
-    keep[hi] = False
-    new = np.cumsum(keep) - 1
-    node_red = new[node_map]
-    g = (3 * node_red[:, None] + np.arange(3)[None, :]).ravel()
-    return g, int(keep.sum())
-
-
-def _reduce_matrix(A, g, n_red):
-    A = A.tocoo()
-    return sp.csr_matrix((A.data, (g[A.row], g[A.col])), shape=(3 * n_red, 3 * n_red))
-
-
-def _reduce_rows(B, g, n_red):
-    """P^T B for a dense (N, k) or sparse B: sum the rows of tied dofs."""
-    P = sp.csr_matrix((np.ones(len(g)), (g, np.arange(len(g)))), shape=(3 * n_red, len(g)))
-    return P @ B
-
 
 @dataclass
 class SurfaceOperators:
