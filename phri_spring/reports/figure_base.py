@@ -20,9 +20,9 @@ from matplotlib.figure import Figure
 __all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "write_png"]
 
 #: colour-blind-safe colours of the arm models (Okabe-Ito orange and blue)
-ARM_COLORS = {"rigid": "#E69F00", "compliant": "#0072B2"}
+ARM_COLORS = {"rigid": "#E69F00", "compliant": "#0072B2", "coupled": "#009E73"}
 #: how the arm models are named in figures
-ARM_NAMES = {"rigid": "Rigid arm", "compliant": "Compliant arm"}
+ARM_NAMES = {"rigid": "Rigid arm", "compliant": "Compliant arm", "coupled": "Coupled tissue"}
 #: resolution of saved figures [dpi]
 DEFAULT_DPI = 170
 
