@@ -40,7 +40,7 @@ from scipy.optimize import nnls
 
 from .active_set import SET_RTOL, ContactSystem, FactorCache, set_keys
 from .geometry import CuffGeometry
-from .preload import handles_preload, hoop_preload
+from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
 
 __all__ = ["CoupledModel", "CoupledSystem", "build_coupled_model", "patch_frames",
@@ -465,9 +465,9 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                              f"got {N_g.shape}")
         N_out = N_g @ R.T
 
-    if strap_model == "hoop":
-        row_w = geometry.row_width[:: geometry.n_angles]
-        f0 = hoop_preload(strap_tension, geometry.span, geometry.row_width, row_w)
+    f0, W_handles = strap_preload(geometry, strap_tension, strap_model, handle_angles_deg,
+                                  handle_axial_position)
+    if W_handles is None:  # hoop
         P0 = np.zeros(n * dofs)
         normals = np.arange(n) * dofs
         P0[normals] = f0
@@ -478,20 +478,9 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                 P0[normals] = p
         delta = C @ P0
         W_pre = T.T @ P0
-    elif strap_model == "handles":
-        f0 = np.zeros(n)
-        delta = np.zeros(n * dofs)
-        if handle_angles_deg is None:
-            th = np.degrees(geometry.theta[: geometry.n_angles])
-            half = np.degrees(geometry.span[0]) / 2.0
-            handle_angles_deg = (th[0] - half, th[-1] + half)
-        ax = float(np.mean(geometry.x[:: geometry.n_angles])) if handle_axial_position is None \
-            else float(handle_axial_position)
-        radius = float(np.mean(geometry.radius[:: geometry.n_angles]))
-        ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
-        W_pre = handles_preload(strap_tension, ta, tb, ax, radius)
     else:
-        raise ValueError(f"strap model: expected 'hoop' or 'handles', got {strap_model!r}")
+        delta = np.zeros(n * dofs)
+        W_pre = W_handles
 
     model = CoupledModel(geometry=geometry, arm="coupled", K_t=K, dofs=dofs, k_cuff=k_c,
                          shear_ratio=eta, delta=delta, f0=f0, W_pre=W_pre, T=T, C=C, C_t=C_t,

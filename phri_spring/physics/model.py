@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .geometry import CuffGeometry, element_jacobians
-from .preload import handles_preload, hoop_preload
+from .preload import strap_preload
 from .springs import (LinearContact, element_stiffness, indenter_to_element,
                       shear_ratio_from_poisson, shear_stiffness_matrix)
 
@@ -223,25 +223,14 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
                          "(e.g. a single angular location): the cuff is not held in every "
                          "direction")
 
-    if strap_model == "hoop":
-        row_w = geometry.row_width[:: geometry.n_angles]
-        f0 = hoop_preload(strap_tension, geometry.span, geometry.row_width, row_w)
+    f0, W_handles = strap_preload(geometry, strap_tension, strap_model, handle_angles_deg,
+                                  handle_axial_position)
+    if W_handles is None:  # hoop: u = 0 at zero load
         delta0 = f0 / k
         W_pre = f0 @ geometry.b
-    elif strap_model == "handles":
-        f0 = np.zeros(n)
-        delta0 = np.zeros(n)
-        if handle_angles_deg is None:
-            th = np.degrees(geometry.theta[: geometry.n_angles])
-            half = np.degrees(geometry.span[0]) / 2.0
-            handle_angles_deg = (th[0] - half, th[-1] + half)
-        ax = float(np.mean(geometry.x[:: geometry.n_angles])) if handle_axial_position is None \
-            else float(handle_axial_position)
-        radius = float(np.mean(geometry.radius[:: geometry.n_angles]))
-        ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
-        W_pre = handles_preload(strap_tension, ta, tb, ax, radius)
     else:
-        raise ValueError(f"strap model: expected 'hoop' or 'handles', got {strap_model!r}")
+        delta0 = np.zeros(n)
+        W_pre = W_handles
 
     return SpringModel(geometry=geometry, arm=arm, k=k, k_shear=k_s, K_s=K_s, delta0=delta0,
                        f0=f0, W_pre=W_pre, strap_model=strap_model,

@@ -6,7 +6,7 @@ import numpy as np
 
 from .geometry import tangent
 
-__all__ = ["hoop_preload", "handles_preload"]
+__all__ = ["hoop_preload", "handles_preload", "strap_preload"]
 
 
 def hoop_preload(tension: float, span, row_width, n_rows_widths) -> np.ndarray:
@@ -55,3 +55,32 @@ def handles_preload(tension: float, theta_a: float, theta_b: float, axial_positi
     p_a = np.array([axial_position, radius * np.cos(theta_a), radius * np.sin(theta_a)])
     p_b = np.array([axial_position, radius * np.cos(theta_b), radius * np.sin(theta_b)])
     return float(tension) * np.concatenate([t_b - t_a, np.cross(p_b, t_b) - np.cross(p_a, t_a)])
+
+
+def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_deg=None,
+                  handle_axial_position=None):
+    """The strap's preload on a cuff geometry, for every arm model (docs/model.md section 3).
+
+    Returns
+    -------
+    f0 : ndarray, shape (n,)
+        ``hoop``: initial normal force of every element [N]; ``handles``: zeros.
+    W_handles : ndarray, shape (6,), or None
+        ``handles``: the strap's wrench on the cuff [N, N*m] (handles at the cuff's
+        edges and the mean row position unless given); ``hoop``: None (the wrench
+        follows from f0 and the arm model).
+    """
+    if model == "hoop":
+        row_w = geometry.row_width[:: geometry.n_angles]
+        return hoop_preload(tension, geometry.span, geometry.row_width, row_w), None
+    if model == "handles":
+        if handle_angles_deg is None:
+            th = np.degrees(geometry.theta[: geometry.n_angles])
+            half = np.degrees(geometry.span[0]) / 2.0
+            handle_angles_deg = (th[0] - half, th[-1] + half)
+        ax = float(np.mean(geometry.x[:: geometry.n_angles])) if handle_axial_position is None \
+            else float(handle_axial_position)
+        radius = float(np.mean(geometry.radius[:: geometry.n_angles]))
+        ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
+        return np.zeros(geometry.n), handles_preload(tension, ta, tb, ax, radius)
+    raise ValueError(f"strap model: expected 'hoop' or 'handles', got {model!r}")
