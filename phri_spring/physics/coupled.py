@@ -40,6 +40,7 @@ from scipy.optimize import nnls
 
 from .active_set import SET_RTOL, ContactSystem, FactorCache, set_keys
 from .geometry import CuffGeometry
+from .model import OnGeometry
 from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
 
@@ -96,7 +97,7 @@ def _unit(unit: str, source: str) -> dict:
 
 
 @dataclass(frozen=True, eq=False)
-class CoupledModel:
+class CoupledModel(OnGeometry):
     """A cuff on a continuum tissue layer, ready to solve (docs/model.md section 10).
 
     Attributes
@@ -156,22 +157,6 @@ class CoupledModel:
     def __post_init__(self):
         object.__setattr__(self, "inv_area_kpa", 1.0 / (1000.0 * self.geometry.areas))
         object.__setattr__(self, "normal_dofs", np.arange(self.geometry.n) * self.dofs)
-
-    @property
-    def n(self) -> int:
-        return self.geometry.n
-
-    @property
-    def labels(self) -> tuple:
-        return self.geometry.labels
-
-    @property
-    def areas(self) -> np.ndarray:
-        return self.geometry.areas
-
-    @property
-    def b(self) -> np.ndarray:
-        return self.geometry.b
 
     def contact_system(self, cache: FactorCache | None = None) -> "CoupledSystem":
         """The active-set kernel's system for this model (docs/model.md section 9)."""

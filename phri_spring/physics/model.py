@@ -18,8 +18,28 @@ def _unit(unit: str, source: str) -> dict:
     return {"unit": unit, "source": source}
 
 
+class OnGeometry:
+    """What every arm model reads off its ``geometry`` (n, labels, b, areas)."""
+
+    @property
+    def n(self) -> int:
+        return self.geometry.n
+
+    @property
+    def labels(self) -> tuple:
+        return self.geometry.labels
+
+    @property
+    def b(self) -> np.ndarray:
+        return self.geometry.b
+
+    @property
+    def areas(self) -> np.ndarray:
+        return self.geometry.areas
+
+
 @dataclass(frozen=True, eq=False)
-class SpringModel:
+class SpringModel(OnGeometry):
     """A cuff-arm spring network ready to solve (docs/model.md sections 1-4).
 
     Every array field declares its unit and the section of docs/model.md that
@@ -94,21 +114,6 @@ class SpringModel:
         for name, value in derived.items():
             object.__setattr__(self, name, value)
 
-    @property
-    def n(self) -> int:
-        return self.geometry.n
-
-    @property
-    def labels(self) -> tuple:
-        return self.geometry.labels
-
-    @property
-    def b(self) -> np.ndarray:
-        return self.geometry.b
-
-    @property
-    def areas(self) -> np.ndarray:
-        return self.geometry.areas
 
     @property
     def law(self) -> LinearContact:
