@@ -35,6 +35,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+from reference_layer import kappa_integral_equation  # noqa: E402  (independent of the FE)
 
 from phri_spring.physics import fe_tissue as fe  # noqa: E402
 from phri_spring.physics.geometry import cuff_geometry  # noqa: E402
@@ -76,27 +79,6 @@ def maxdiff_pct(f, ref):
 
 
 # ------------------------------------------------------------------ punch reference
-
-def kappa_integral_equation(a_over_h, nu, m=64, xmax=40.0, nx=600):
-    """kappa = P (1 - nu) / (4 G a delta) of a frictionless flat punch on a bonded layer.
-
-    Nystrom solution of the Fredholm equation of the second kind of the layer problem
-    (the formulation of Hayes et al. 1972, J. Biomech. 5:541, with the bonded-layer
-    kernel L(x) = (2 alpha sinh 2x - 4x) / (2 alpha cosh 2x + 1 + alpha^2 + 4 x^2),
-    alpha = 3 - 4 nu); kappa = 1 is Sneddon's half-space.
-    """
-    al = 3.0 - 4.0 * nu
-    s, w = np.polynomial.legendre.leggauss(m)
-    s, w = 0.5 * (s + 1), 0.5 * w
-    X, WX = np.polynomial.legendre.leggauss(nx)
-    x, wx = 0.5 * (X + 1) * xmax, 0.5 * WX * xmax
-    e = np.exp(-2 * x)
-    Lm1 = (al * (1 - e * e) - 4 * x * e) / (al * (1 + e * e) + (1 + al * al + 4 * x * x) * e) - 1
-    C = np.cos(np.outer(s, x) * a_over_h)
-    k = (2 / np.pi) * a_over_h * (C * (Lm1 * wx)) @ C.T
-    phi = np.linalg.solve(np.eye(m) + k * w[None, :], np.ones(m))
-    return float(phi @ w)
-
 
 # ------------------------------------------------------------------------- timing
 
