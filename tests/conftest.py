@@ -159,3 +159,20 @@ def reference_of(case):
 def one_line(text: str) -> bool:
     """True when ``text`` is exactly one non-empty line (a trailing newline allowed)."""
     return bool(text.strip()) and "\n" not in text.strip("\n")
+
+
+def run_phri(*args):
+    """``phri ARGS...`` in this process with click's CliRunner (arguments turned to text)."""
+    from click.testing import CliRunner
+
+    from phri_cli.main import phri
+
+    return CliRunner().invoke(phri, [str(a) for a in args])
+
+
+def stderr_of(result) -> str:
+    """What a CliRunner result wrote on stderr."""
+    try:
+        return result.stderr
+    except ValueError:  # click < 8.2 mixes the streams unless asked
+        return result.output

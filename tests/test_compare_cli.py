@@ -8,25 +8,13 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from click.testing import CliRunner
 
-import phri_cli.main
+from conftest import run_phri as run, stderr_of
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "harmony_upper_arm.yaml"
 LABELS = [f"{r}{j}" for r in "ABC" for j in range(7)]
 WRENCH = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-
-
-def run(*args):
-    return CliRunner().invoke(phri_cli.main.phri, [str(a) for a in args])
-
-
-def stderr_of(result) -> str:
-    try:
-        return result.stderr
-    except ValueError:  # click < 8.2 mixes the streams unless asked
-        return result.output
 
 
 def _trial_frame(conditions, rows=5, gap=2):

@@ -16,9 +16,6 @@ import numpy as np
 import pandas as pd
 import pytest
 import yaml
-from click.testing import CliRunner
-
-from phri_cli.main import phri
 from phri_spring.io.config import load_config
 from phri_spring.physics import fe_tissue
 from phri_spring.physics.coupled import build_coupled_model
@@ -26,24 +23,13 @@ from phri_spring.physics.solver import solve
 from phri_spring.workflows.common import geometry_from_config, model_from_config
 from phri_spring.workflows.stiffness import interface_stiffness_report
 
-from conftest import HARMONY_CONFIG
+from conftest import HARMONY_CONFIG, run_phri as run, stderr_of
 from test_coupled import _kernel_K
 
 
-def run(*args):
-    return CliRunner().invoke(phri, [str(a) for a in args])
-
-
-def err_of(res) -> str:
-    try:
-        return res.stderr
-    except ValueError:  # pragma: no cover - click < 8.2
-        return res.output
-
-
 def one_line_error(res, code, *needles):
-    assert res.exit_code == code, (res.exit_code, err_of(res))
-    err = err_of(res).strip()
+    assert res.exit_code == code, (res.exit_code, stderr_of(res))
+    err = stderr_of(res).strip()
     assert "\n" not in err and "Traceback" not in err and "internal error" not in err, err
     for n in needles:
         assert n in err, err
@@ -87,10 +73,10 @@ def test_simulate_coupled_with_an_export_and_shear_columns(export, tmp_path):
     out = tmp_path / "forces.csv"
     res = run("simulate", export, "examples/wrench_log.csv", "-o", out, "--arm", "coupled",
               "--shear", "--decimals", "-1")
-    assert res.exit_code == 0, err_of(res)
+    assert res.exit_code == 0, stderr_of(res)
     table = pd.read_csv(out)
     assert table["converged"].all()
-    assert "coupled arm" in err_of(res)
+    assert "coupled arm" in stderr_of(res)
     cols = [c for c in table.columns if "_shear_" in c]
     assert cols[:2] == ["A0_shear_axial_N", "A0_shear_circumferential_N"] and len(cols) == 42
     # the same numbers as the library
@@ -110,14 +96,14 @@ def test_simulate_coupled_with_an_export_and_shear_columns(export, tmp_path):
 def test_compare_three_arms_and_stiffness(export, tmp_path):
     res = run("compare", export, "examples/experiment/manifest.yaml", "-o", tmp_path / "cmp",
               "--arms", "rigid,compliant,coupled", "--no-figures", "-q")
-    assert res.exit_code == 0, err_of(res)
+    assert res.exit_code == 0, stderr_of(res)
     rmse = pd.read_csv(tmp_path / "cmp" / "rmse.csv")
     assert set(rmse["arm"]) == {"rigid", "compliant", "coupled"}
     rep = interface_stiffness_report(load_config(export), "coupled")
     K = np.asarray(rep.K)
     np.testing.assert_allclose(K, K.T, rtol=0, atol=1e-9 * np.abs(K).max())
     res = run("stiffness", export, "--arm", "coupled", "--json")
-    assert res.exit_code == 0, err_of(res)
+    assert res.exit_code == 0, stderr_of(res)
 
 
 def test_builtin_fe_through_the_cli(tmp_path, harmony, monkeypatch):
@@ -128,7 +114,7 @@ def test_builtin_fe_through_the_cli(tmp_path, harmony, monkeypatch):
     cfg.write_text(yaml.safe_dump(data))
     res = run("simulate", cfg, "examples/wrench_log.csv", "-o", tmp_path / "f.parquet",
               "--arm", "coupled")
-    assert res.exit_code == 0, err_of(res)
+    assert res.exit_code == 0, stderr_of(res)
     assert list((tmp_path / "cache").glob("*.npz"))          # built once, cached
     assert pd.read_parquet(tmp_path / "f.parquet")["converged"].all()
 

@@ -11,25 +11,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from click.testing import CliRunner
 
-import phri_cli.main
+from conftest import run_phri as run, stderr_of
 from test_stiffness import CFG, fd_loadcell_map, rotation_xyz, spec_cuff_stiffness
 
 ROOT = Path(__file__).resolve().parents[1]
 HARMONY = ROOT / "configs" / "harmony_upper_arm.yaml"
 HUMAN = ROOT / "configs" / "human_upper_arm.yaml"
-
-
-def run(*args):
-    return CliRunner().invoke(phri_cli.main.phri, [str(a) for a in args])
-
-
-def stderr_of(result) -> str:
-    try:
-        return result.stderr
-    except ValueError:  # click < 8.2 mixes the streams unless asked
-        return result.output
 
 
 def stdout_of(result) -> str:
