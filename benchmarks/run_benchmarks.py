@@ -178,12 +178,8 @@ def bench_plot(phri, work, row, log10h, reps=3):
     out.unlink(missing_ok=True)
 
 
-def main_only(args):
-    """The rows of one group (``--only``), printed (and written with ``--out``)."""
-    compile_bytecode()
-    work = Path(args.workdir or tempfile.mkdtemp(prefix="phri-bench-"))
-    work.mkdir(parents=True, exist_ok=True)
-    phri = [sys.executable, "-m", "phri_cli.main"]
+def _table():
+    """(row, markdown): record table rows (printing each as it comes) and render them."""
     rows = []
 
     def row(scenario, value, baseline, ratio, target, ok):
@@ -191,6 +187,21 @@ def main_only(args):
         print(f"{scenario}: {value} | {baseline} | {ratio} | {target} | "
               f"{'met' if ok else 'NOT met'}", flush=True)
 
+    def markdown():
+        lines = ["| scenario | result | baseline (same run) | ratio | target | met |",
+                 "|---|---|---|---|---|---|"]
+        return lines + ["| " + " | ".join(r) + " |" for r in rows]
+
+    return row, markdown
+
+
+def main_only(args):
+    """The rows of one group (``--only``), printed (and written with ``--out``)."""
+    compile_bytecode()
+    work = Path(args.workdir or tempfile.mkdtemp(prefix="phri-bench-"))
+    work.mkdir(parents=True, exist_ok=True)
+    phri = [sys.executable, "-m", "phri_cli.main"]
+    row, markdown = _table()
     reps = 3 if args.quick else 5
     if args.only == "compare":
         bench_compare(phri, work, reps, row)
@@ -200,9 +211,7 @@ def main_only(args):
             print(f"generating the 10 h log in {work} ...", flush=True)
             make_log(log10h, 3_600_000, seed=11)
         bench_plot(phri, work, row, log10h, reps=2 if args.quick else 3)
-    lines = ["| scenario | result | baseline (same run) | ratio | target | met |",
-             "|---|---|---|---|---|---|"]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    lines = markdown()
     text = (f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
             f"{platform.python_version()}. {time.strftime('%Y-%m-%d')}.\n\nCommand: `python "
             f"benchmarks/run_benchmarks.py --only {args.only}"
@@ -231,12 +240,7 @@ def main():
     work = Path(args.workdir or tempfile.mkdtemp(prefix="phri-bench-"))
     work.mkdir(parents=True, exist_ok=True)
     phri = [sys.executable, "-m", "phri_cli.main"]
-    rows = []
-
-    def row(scenario, value, baseline, ratio, target, ok):
-        rows.append((scenario, value, baseline, ratio, target, "yes" if ok else "**no**"))
-        print(f"{scenario}: {value} | {baseline} | {ratio} | {target} | {'met' if ok else 'NOT met'}",
-              flush=True)
+    row, markdown = _table()
 
     n1h = 360_000
     log_csv, log_pq = work / "log_1h.csv", work / "log_1h.parquet"
@@ -387,9 +391,7 @@ def main():
     header = (f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
               f"{platform.python_version()}, numpy {np.__version__}, pyarrow {pyarrow.__version__}."
               f" {time.strftime('%Y-%m-%d')}.")
-    lines = ["| scenario | result | baseline (same run) | ratio | target | met |",
-             "|---|---|---|---|---|---|"]
-    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    lines = markdown()
     text = (f"{header}\n\nCommand: `python benchmarks/run_benchmarks.py"
             f"{' --quick' if args.quick else ''}`\n\n" + "\n".join(lines) + "\n")
     Path(args.out).write_text(text)
