@@ -186,13 +186,9 @@ class CoupledModel(OnGeometry):
             out[np.ix_(idx, D)] = u[idx] @ GT.T + Gd
         return out.reshape(len(u), self.n, self.dofs)
 
-
-def _coupled_shear(self, u, contact) -> np.ndarray:
-    """Tangential patch forces on the arm, (m, n, 2) [N]: axial, circumferential."""
-    return self.patch_forces(u, contact)[..., 1:3]
-
-
-CoupledModel.shear_components = _coupled_shear
+    def shear_components(self, u, contact) -> np.ndarray:
+        """Tangential patch forces on the arm, (m, n, 2) [N]: axial, circumferential."""
+        return self.patch_forces(u, contact)[..., 1:3]
 
 
 #: rows per chunk when per-row set maps are gathered (bounds the (rows, 6, n) temporary)

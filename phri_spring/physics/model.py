@@ -119,6 +119,25 @@ class SpringModel(OnGeometry):
     def law(self) -> LinearContact:
         return LinearContact(self.k)
 
+    def shear_forces(self, u) -> np.ndarray:
+        """Shear force on the arm s_e = k_s,e (I3 - n_e n_e^T) B_e u [N], shape (..., n, 3).
+
+        The bonded shear springs of docs/model.md section 2, for displacement(s) u (..., 6).
+        """
+        u = np.asarray(u, dtype=float)
+        g = self.geometry
+        d = u[..., None, :3] + np.cross(u[..., None, 3:], g.points)      # d_e = t + w x p_e
+        dn = np.sum(d * g.normals, axis=-1, keepdims=True)
+        return self.k_shear[:, None] * (d - dn * g.normals)
+
+    def shear_components(self, u, contact=None) -> np.ndarray:
+        """Shear force on the arm, (m, n, 2) [N]: along the axis a = +x and along
+        c_e = n_e x a (increasing angle), for displacements u (m, 6); ``contact`` unused
+        (the shear springs are bonded)."""
+        s = self.shear_forces(np.atleast_2d(u))
+        circ = np.cross(self.geometry.normals, np.array([1.0, 0.0, 0.0]))
+        return np.stack([s[..., 0], np.sum(s * circ, axis=-1)], axis=-1)
+
     def tangent_stiffness(self, u, contact=None) -> np.ndarray:
         """Tangent stiffness K_s + sum_{e in contact} k_e b_e b_e^T (6, 6) at displacement u (6,).
 
@@ -128,24 +147,6 @@ class SpringModel(OnGeometry):
             contact = (self.delta0 + self.b @ np.asarray(u, dtype=float)) > 0
         kS = self.k * np.asarray(contact, dtype=bool)
         return self.K_s + (self.b.T * kS) @ self.b
-
-
-def _shear_components(model: SpringModel, u, contact=None) -> np.ndarray:
-    """Tangential force on the arm at every element, (m, n, 2) [N]: axial, circumferential.
-
-    s_e = k_s,e (I3 - n_e n_e^T) (t + w x p_e) (docs/model.md section 2, bonded shear),
-    projected on the axis a = +x and on c_e = n_e x a (increasing angle).
-    """
-    u = np.atleast_2d(np.asarray(u, dtype=float))
-    g = model.geometry
-    d = u[:, None, :3] + np.cross(u[:, None, 3:], g.points)
-    dn = np.sum(d * g.normals, axis=-1, keepdims=True)
-    s = model.k_shear[:, None] * (d - dn * g.normals)
-    circ = np.cross(g.normals, np.array([1.0, 0.0, 0.0]))
-    return np.stack([s[..., 0], np.sum(s * circ, axis=-1)], axis=-1)
-
-
-SpringModel.shear_components = _shear_components
 
 
 def field_table(model_class=SpringModel) -> list:

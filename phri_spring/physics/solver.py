@@ -96,11 +96,7 @@ def normal_forces(model: SpringModel, u) -> np.ndarray:
 
 def shear_forces(model: SpringModel, u) -> np.ndarray:
     """Shear force on the arm s_e = k_s,e (I3 - n_e n_e^T) B_e u [N], shape (..., n, 3)."""
-    u = np.asarray(u, dtype=float)
-    g = model.geometry
-    d = u[..., None, :3] + np.cross(u[..., None, 3:], g.points)      # d_e = t + w x p_e
-    dn = np.sum(d * g.normals, axis=-1, keepdims=True)
-    return model.k_shear[:, None] * (d - dn * g.normals)
+    return model.shear_forces(u)
 
 
 def energy(model: SpringModel, u, wrench) -> np.ndarray:
