@@ -131,6 +131,8 @@ def test_builtin_fe_through_the_cli(tmp_path, harmony, monkeypatch):
     (lambda t: t.update(poisson_ratio=0.5), 1, ["tissue.poisson_ratio", "0.5"]),
     (lambda t: t.update(poisson_ratio=0.6), 1, ["tissue.poisson_ratio"]),
     (lambda t: t["continuum"].update(tickness=1), 1, ["tickness", "did you mean 'thickness'"]),
+    (lambda t: (t["continuum"].pop("young_modulus"), t.update(basis="element")), 1,
+     ["tissue.continuum.young_modulus", "basis"]),
 ])
 def test_bad_continuum_config(tmp_path, harmony, edit, code, needles):
     data = copy.deepcopy(harmony)
@@ -165,6 +167,16 @@ def test_bad_surface_stiffness_file(tmp_path, harmony, make, needles):
     assert (tmp_path / "k.npz").read_bytes() == before
 
 
+def test_missing_surface_stiffness_file(tmp_path, harmony):
+    data = copy.deepcopy(harmony)
+    data["tissue"]["continuum"] = {"thickness": 0.02, "surface_stiffness": "missing.npz"}
+    (tmp_path / "cfg.yaml").write_text(yaml.safe_dump(data))
+    res = run("simulate", tmp_path / "cfg.yaml", "examples/wrench_log.csv", "-o",
+              tmp_path / "f.csv", "--arm", "coupled")
+    one_line_error(res, 1, "missing.npz", "not found")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cfg.yaml"]
+
+
 def test_missing_fe_extra_names_it(tmp_path, harmony, monkeypatch):
     import builtins
 
@@ -184,3 +196,29 @@ def test_missing_fe_extra_names_it(tmp_path, harmony, monkeypatch):
               tmp_path / "f.csv", "--arm", "coupled")
     one_line_error(res, 2, "pip install -e .[fe]")
     assert not (tmp_path / "f.csv").exists()
+
+
+def test_per_patch_spread_scales_each_patch_by_its_modulus(export, tmp_path):
+    # a uniform indenter map: per_patch is the homogeneous layer; doubling one location's
+    # indenter stiffness doubles that patch's own stiffness (K_ee scaled by s_e = 2 relative
+    # to the others, the mean moving with it)
+    data = yaml.safe_load(export.read_text())
+    data["tissue"]["continuum"]["spread"] = "per_patch"
+    cfg_path = tmp_path / "spread.yaml"
+    cfg_path.write_text(yaml.safe_dump(data))
+    W = np.array([[0.0, 0.0, 30.0, 0.0, 0.0, 0.0], [20.0, -10.0, 5.0, 0.5, 0.0, 0.2]])
+    same = solve(model_from_config(load_config(export), "coupled"), W).forces
+    np.testing.assert_allclose(solve(model_from_config(load_config(cfg_path), "coupled"),
+                                     W).forces, same, rtol=0, atol=1e-12)
+    data["tissue"]["stiffness"] = {lab: (8484.0 if lab == "B3" else 4242.0)
+                                   for lab in load_config(export).labels}
+    cfg_path.write_text(yaml.safe_dump(data))
+    base = model_from_config(load_config(export), "coupled")
+    scaled = model_from_config(load_config(cfg_path), "coupled")
+    s = np.full(21, 4242.0)
+    s[10] = 8484.0
+    s /= s.mean()
+    e = 10 * 6                                         # B3's first dof (6 dofs per patch)
+    np.testing.assert_allclose(scaled.K_t[e:e + 6, e:e + 6], s[10] * base.K_t[e:e + 6, e:e + 6],
+                               rtol=1e-12)
+    np.testing.assert_allclose(scaled.K_t[:6, :6], s[0] * base.K_t[:6, :6], rtol=1e-12)
