@@ -335,12 +335,14 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
 
     This process draws too (``local`` jobs, which need not be picklable, then
     jobs from the front of the list) while ``workers - 1`` worker processes
-    take jobs from the back, a few at a time, so that the work is shared
-    whatever each figure costs. Every image depends only on its own job (the
-    same pixels whichever process draws it), so the output is deterministic.
-    The caller writes into a temporary folder (the figures of a failed run
-    never land); on an error or an interrupt the pending jobs are cancelled
-    and the running ones finished before the error is raised.
+    take jobs from the back. A feeder thread hands each worker its next job as
+    soon as one of its jobs is done (two are kept queued per worker), so no
+    worker waits while this process draws a long figure, and the work is
+    shared whatever each figure costs. Every image depends only on its own
+    job (the same pixels whichever process draws it), so the output is
+    deterministic. The caller writes into a temporary folder (the figures of a
+    failed run never land); on an error or an interrupt the pending jobs are
+    cancelled and the running ones finished before the error is raised.
 
     Parameters
     ----------
@@ -360,15 +362,15 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
         The paths written, in the order of ``local`` then ``jobs``.
     """
     import collections
-    from concurrent.futures import FIRST_COMPLETED, wait
 
     jobs, local = list(jobs), list(local)
     workers = available_cores() if workers is None else max(1, int(workers))
     workers = min(workers, 1 + len(jobs) // 4)       # a process per few figures at most
+    written = [str(j[1]) for j in (*local, *jobs)]
     if workers <= 1:
         for job in (*local, *jobs):
             render_job(job, dpi)
-        return [str(j[1]) for j in (*local, *jobs)]
+        return written
     # build the renderers before the workers are forked: they inherit them, built once
     for job in jobs:
         if job[0] in ("heatmap", "wrench"):
@@ -380,27 +382,83 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
     if pool is None:
         for job in (*local, *jobs):
             render_job(job, dpi)
-        return [str(j[1]) for j in (*local, *jobs)]
+        return written
     pending = collections.deque(jobs)
-    inflight = set()
-    mine = collections.deque(local)
+    feeder = _Feeder(pool, pending, dpi, queued=2 * (workers - 1))
     try:
-        while pending or inflight or mine:
-            while pending and len(inflight) < 2 * (workers - 1):
-                inflight.add(_submit(pool, render_job, pending.pop(), dpi))
-            if mine:                                  # while the workers start drawing
-                render_job(mine.popleft(), dpi)
-                done = {f for f in inflight if f.done()}
-            elif pending:
-                render_job(pending.popleft(), dpi)
-                done = {f for f in inflight if f.done()}
-            else:
-                done, _ = wait(inflight, return_when=FIRST_COMPLETED)
-            for fut in done:
-                inflight.discard(fut)
-                fut.result()                          # raises a worker's error here
+        feeder.start()
+        for job in local:
+            render_job(job, dpi)
+            feeder.check()
+        while True:
+            try:
+                job = pending.popleft()              # the workers take from the other end
+            except IndexError:
+                break
+            render_job(job, dpi)
+            feeder.check()
+        feeder.finish()                              # waits for the workers' last jobs
     finally:
-        for fut in inflight:
-            fut.cancel()
+        feeder.stop()
         pool.shutdown(wait=True, cancel_futures=True)
-    return [str(j[1]) for j in (*local, *jobs)]
+    return written
+
+
+class _Feeder:
+    """Keeps ``queued`` jobs from the back of ``pending`` submitted to a pool (a thread).
+
+    :meth:`check` raises a worker's error in the caller's thread; :meth:`finish`
+    waits for the submitted jobs; :meth:`stop` ends the thread and cancels
+    what has not started.
+    """
+
+    def __init__(self, pool, pending, dpi: int, queued: int):
+        import threading
+
+        self.pool, self.pending, self.dpi, self.queued = pool, pending, dpi, max(1, queued)
+        self.inflight = set()
+        self.error = None
+        self.done = threading.Event()      # every job submitted and finished, or an error
+        self.halt = threading.Event()
+        self.thread = threading.Thread(target=self._run, name="phri-figure-feeder",
+                                       daemon=True)
+
+    def start(self) -> None:
+        self.thread.start()
+
+    def _run(self) -> None:
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        try:
+            while not self.halt.is_set():
+                while len(self.inflight) < self.queued:
+                    try:
+                        job = self.pending.pop()
+                    except IndexError:
+                        break
+                    self.inflight.add(_submit(self.pool, render_job, job, self.dpi))
+                if not self.inflight:
+                    break                       # nothing left for the workers
+                done, _ = wait(self.inflight, timeout=0.2, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    self.inflight.discard(fut)
+                    fut.result()                # a worker's error: stop feeding
+        except BaseException as exc:            # noqa: BLE001 - handed to the caller
+            self.error = exc
+        finally:
+            self.done.set()
+
+    def check(self) -> None:
+        if self.error is not None:
+            raise self.error
+
+    def finish(self) -> None:
+        while not self.done.wait(0.2):          # short waits: an interrupt is seen at once
+            pass
+        self.check()
+
+    def stop(self) -> None:
+        self.halt.set()
+        self.thread.join()
+        for fut in self.inflight:
+            fut.cancel()

@@ -116,7 +116,9 @@ class HeatmapRenderer(_ReusedFigure):
                 for side in ax.spines.values():
                     side.set_visible(False)
                 self.images.append(im)
-                self.texts.append([[ax.text(c, r, "", ha="center", va="center", fontsize=7)
+                # the values sit inside their cells: they never move the layout
+                self.texts.append([[ax.text(c, r, "", ha="center", va="center", fontsize=7,
+                                            in_layout=False)
                                     for c in range(n_angles)] for r in range(n_rows)])
             self.cbar = fig.colorbar(self.images[-1], ax=list(axes), shrink=0.8, pad=0.02,
                                      aspect=15)

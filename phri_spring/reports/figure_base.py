@@ -148,9 +148,9 @@ class _ReusedFigure:
         fig = self.fig
         dpi = int(dpi)
         if self._canvas is None:
-            from matplotlib.backends.backend_agg import FigureCanvasAgg
+            from .agg_text import CachedTextCanvas
 
-            self._canvas = FigureCanvasAgg(fig)
+            self._canvas = CachedTextCanvas(fig)
         with _style():
             fig.dpi = dpi
             key = (self._layout(dpi), dpi)
@@ -195,7 +195,7 @@ def write_png(path, rgba, dpi: float) -> Path:
         chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1)),
         chunk(b"tEXt", b"Software\0" + f"Matplotlib version{matplotlib.__version__}, "
               "https://matplotlib.org/".encode("latin-1")),
-        chunk(b"IDAT", zlib.compress(raw.tobytes(), 6)),
+        chunk(b"IDAT", zlib.compress(raw.tobytes(), 1)),
         chunk(b"IEND", b""),
     ])
     path = Path(path)
