@@ -54,6 +54,7 @@ def test_fast_path_is_on_with_this_matplotlib():
         assert agg_text.AVAILABLE
 
 
+@pytest.mark.filterwarnings("ignore:Glyph .* missing from font")
 @pytest.mark.parametrize("dpi", [40, 100, 170, 97.3])
 @pytest.mark.parametrize("antialiased", [True, False])
 def test_same_pixels_as_matplotlib(dpi, antialiased):

@@ -159,3 +159,34 @@ def test_png_writer_keeps_every_pixel(tmp_path, opaque):
         back = np.asarray(im)
         assert round(im.info["dpi"][0]) == 170
     np.testing.assert_array_equal(back, rgba[..., :3] if opaque else rgba)
+
+
+def test_cell_values_draw_what_plain_texts_draw():
+    # the heat-map cells keep their strings' layouts: the same pixels as matplotlib's Text,
+    # on the first draw and on later ones (from the kept layouts), at several resolutions
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from phri_spring.reports.compare_heatmap import _CellText
+
+    rng = np.random.default_rng(3)
+    values = [f"{v:.1f}" for v in rng.normal(0, 20, 40)] + ["0.0", "-0.1", "123.4", ""]
+    xy = rng.uniform(0, 1, (len(values), 2))
+
+    def draw(cls, dpi):
+        fig = Figure(figsize=(3, 2), dpi=dpi)
+        ax = fig.add_subplot()
+        for (x, y), s in zip(xy, values):
+            t = cls(x, y, s, ha="center", va="center", fontsize=7, color="0.1")
+            ax.add_artist(t)
+        canvas = FigureCanvasAgg(fig)
+        canvas.draw()
+        first = np.array(canvas.buffer_rgba())
+        canvas.draw()
+        np.testing.assert_array_equal(first, np.asarray(canvas.buffer_rgba()))
+        return first
+
+    from matplotlib.text import Text
+
+    for dpi in (60, 100, 170):
+        np.testing.assert_array_equal(draw(_CellText, dpi), draw(Text, dpi))

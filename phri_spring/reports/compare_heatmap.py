@@ -14,6 +14,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.text import Text
 
 from .figure_base import ARM_NAMES, _ReusedFigure, _style, write_png
 
@@ -60,6 +61,34 @@ def heatmap_figure(measured, simulated: dict, *, row_labels: Sequence[str], n_an
     return renderer.fill(measured, simulated, title=title, rmse=rmse)
 
 
+class _CellText(Text):
+    """The value in a heat-map cell: a :class:`~matplotlib.text.Text` that lays out each string once.
+
+    A text's layout (its lines' sizes and offsets from the anchor) depends on
+    the string, the font, the alignment and the resolution, not on where it
+    is drawn; the 63 cells of a heat map repeat a few hundred strings over
+    many figures, so the layouts are kept (by string and resolution, for
+    these cells' unchanging font and alignment) instead of measured on every
+    draw. Everything else is drawn as by ``Text``.
+    """
+
+    _layouts: dict = {}      # (string, dpi, font, alignment) -> Text._get_layout's result
+
+    def _get_layout(self, renderer):
+        key = (self.get_text(), self.figure.dpi, self._fontproperties,
+               self._horizontalalignment, self._verticalalignment, self.get_rotation(),
+               self._linespacing, type(renderer))
+        try:
+            return self._layouts[key]
+        except (KeyError, TypeError):
+            pass
+        layout = super()._get_layout(renderer)
+        if len(self._layouts) >= 20_000:
+            self._layouts.clear()
+        self._layouts[key[:2] + (self._fontproperties.copy(),) + key[3:]] = layout
+        return layout
+
+
 class HeatmapRenderer(_ReusedFigure):
     """Many heat maps (Fig. 8b) of one layout, drawn into one figure built once.
 
@@ -101,7 +130,10 @@ class HeatmapRenderer(_ReusedFigure):
             self.images, self.texts = [], []
             zeros = np.zeros((n_rows, n_angles))
             for j, ax in enumerate(axes):
-                im = ax.imshow(zeros, cmap=cmap, vmin=-1.0, vmax=1.0, aspect="equal")
+                # colours looked up on the 3 x 7 cells, then enlarged (the same pixels as
+                # enlarging the values first, and a third of the work)
+                im = ax.imshow(zeros, cmap=cmap, vmin=-1.0, vmax=1.0, aspect="equal",
+                               interpolation="nearest", interpolation_stage="rgba")
                 ax.set_title(" ")
                 ax.set_xticks(np.arange(n_angles), [str(i) for i in range(n_angles)])
                 ax.set_yticks(np.arange(n_rows), list(self.row_labels))
@@ -117,8 +149,8 @@ class HeatmapRenderer(_ReusedFigure):
                     side.set_visible(False)
                 self.images.append(im)
                 # the values sit inside their cells: they never move the layout
-                self.texts.append([[ax.text(c, r, "", ha="center", va="center", fontsize=7,
-                                            in_layout=False)
+                self.texts.append([[ax.add_artist(_CellText(c, r, "", ha="center", va="center",
+                                                            fontsize=7, in_layout=False))
                                     for c in range(n_angles)] for r in range(n_rows)])
             self.cbar = fig.colorbar(self.images[-1], ax=list(axes), shrink=0.8, pad=0.02,
                                      aspect=15)
