@@ -190,3 +190,49 @@ def test_cell_values_draw_what_plain_texts_draw():
 
     for dpi in (60, 100, 170):
         np.testing.assert_array_equal(draw(_CellText, dpi), draw(Text, dpi))
+
+
+def _png_pixels(path):
+    from PIL import Image
+
+    with Image.open(path) as im:
+        return np.asarray(im.convert("RGBA"))
+
+
+@pytest.mark.parametrize("kind", ["heatmap", "wrench", "bars", "plain", "tight"])
+def test_save_figure_writes_the_pixels_of_savefig(tmp_path, kind):
+    # save_figure draws PNGs once on the text-caching canvas: the pixels Figure.savefig writes
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+    from phri_spring.reports.compare_figures import rmse_bars_figure
+
+    def make():
+        if kind == "heatmap":
+            m, s, e, t = heatmap_inputs()
+            return heatmap_figure(m, s, row_labels=("A", "B", "C"), n_angles=7, title=t, rmse=e)
+        if kind == "wrench":
+            return wrench_figure(*wrench_inputs(), title="trial 1")
+        if kind == "bars":
+            summary = pd.DataFrame({"experiment": ["E"] * 4, "direction": ["h"] * 4,
+                                    "condition": ["L1", "L1", "L2", "L2"],
+                                    "arm": ["rigid", "compliant"] * 2,
+                                    "mean_rmse_N": [1.0, 0.5, 2.0, 0.8],
+                                    "se_rmse_N": [0.1, 0.05, 0.2, 0.1], "n_trials": [3] * 4,
+                                    "load_N": [10.0, 10.0, 20.0, 20.0]})
+            return rmse_bars_figure(summary)
+        fig = Figure(figsize=(3, 2), layout="tight" if kind == "tight" else None)
+        ax = fig.add_subplot()
+        ax.plot([0, 1, 4], [2, -1, 3], label="a line")
+        ax.set_title("title [N·m]")
+        ax.legend()
+        return fig
+
+    ours = save_figure(make(), tmp_path / "ours.png", 83)
+    theirs = tmp_path / "theirs.png"
+    from phri_spring.reports.figure_base import _style
+
+    fig = make()                     # made outside the style, as ours; saved inside it, as ours
+    with _style():
+        fig.savefig(theirs, dpi=83)
+    np.testing.assert_array_equal(_png_pixels(ours), _png_pixels(theirs))

@@ -214,7 +214,7 @@ class HeatmapRenderer(_ReusedFigure):
     def _short_axes(self):
         return self._label_axes()           # the bar is 80 % of the panels' height
 
-    def _save_png(self, path: Path, dpi: int, key) -> None:
+    def _save_png(self, path: Optional[Path], dpi: int, key):
         """Draw the changing parts, lay the unchanging ones over them, write the PNG.
 
         The panels' axes (tick labels, axis labels, the white cell borders) are
@@ -249,17 +249,17 @@ class HeatmapRenderer(_ReusedFigure):
         finally:
             for a in fixed:
                 a.set_visible(True)
-        out = np.array(self._canvas.buffer_rgba())
+        out = np.asarray(self._canvas.buffer_rgba())     # laid over in place (redrawn anyway)
         flat = out.reshape(-1, 4)
         where, premult, keep = layer
         rgb = flat[where, :3].astype(np.float32)
         rgb *= keep
         rgb += premult
         flat[where, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
-        write_png(path, out, dpi)
+        return write_png(path, out, dpi)
 
-    def _write(self, path: Path, dpi: int, key) -> None:
-        if path.suffix.lower() == ".png":
-            self._save_png(path, dpi, key)
-        else:
-            self.fig.savefig(path, dpi=dpi)
+    def _write(self, path: Optional[Path], dpi: int, key):
+        if path is None or path.suffix.lower() == ".png":
+            return self._save_png(path, dpi, key)
+        self.fig.savefig(path, dpi=dpi)
+        return path

@@ -13,6 +13,7 @@ used, never pyplot.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -135,16 +136,19 @@ class _ReusedFigure:
             self._layouts.setdefault(start, []).append(entry)
         return tuple(np.round([v for o, a in entry[0][0] for v in (*o.bounds, *a.bounds)], 9))
 
-    def _write(self, path: Path, dpi: int, key) -> None:
-        if path.suffix.lower() == ".png":
+    def _write(self, path: Optional[Path], dpi: int, key):
+        if path is None or path.suffix.lower() == ".png":
             self._canvas.draw()
-            write_png(path, np.asarray(self._canvas.buffer_rgba()), dpi)
-        else:
-            self.fig.savefig(path, dpi=dpi)
+            return write_png(path, np.asarray(self._canvas.buffer_rgba()), dpi)
+        self.fig.savefig(path, dpi=dpi)
+        return path
 
-    def save(self, path, dpi: int = DEFAULT_DPI) -> Path:
-        """Save the current figure (PNG, PDF or SVG by the extension), reusing layouts."""
-        path = Path(path)
+    def save(self, path, dpi: int = DEFAULT_DPI):
+        """Save the current figure (PNG, PDF or SVG by the extension), reusing layouts.
+
+        Returns the path written, or with ``path=None`` the PNG file's bytes.
+        """
+        path = None if path is None else Path(path)
         fig = self.fig
         dpi = int(dpi)
         if self._canvas is None:
@@ -158,14 +162,15 @@ class _ReusedFigure:
             # placeholder, savefig draws twice: once for the layout, once for the pixels)
             engine, fig._layout_engine = fig._layout_engine, None
             try:
-                self._write(path, dpi, key)
+                return self._write(path, dpi, key)
             finally:
                 fig._layout_engine = engine
-        return path
 
 
-def write_png(path, rgba, dpi: float) -> Path:
+def write_png(path, rgba, dpi: float):
     """Write pixels (h, w, 4) uint8 as a PNG, RGB when every pixel is opaque.
+
+    Returns the path, or with ``path=None`` the file's bytes (nothing written).
 
     The same pixels as matplotlib's PNG writer (lossless), about twice as fast:
     rows are stored unfiltered and deflated once (Pillow tries a filter per row,
@@ -181,8 +186,10 @@ def write_png(path, rgba, dpi: float) -> Path:
     h, w = rgba.shape[:2]
     opaque = bool(np.all(rgba[..., 3] == 255))
     px = rgba[..., :3] if opaque else rgba
-    raw = np.zeros((h, 1 + w * px.shape[2]), dtype=np.uint8)   # filter byte 0: none
-    raw[:, 1:] = px.reshape(h, -1)
+    depth = px.shape[2]
+    raw = np.empty((h, 1 + w * depth), dtype=np.uint8)
+    raw[:, 0] = 0                                          # filter byte of each row: none
+    np.copyto(raw[:, 1:].reshape(h, w, depth), px)        # one copy, into the rows
 
     def chunk(kind: bytes, data: bytes) -> bytes:
         return (struct.pack(">I", len(data)) + kind + data +
@@ -195,9 +202,11 @@ def write_png(path, rgba, dpi: float) -> Path:
         chunk(b"pHYs", struct.pack(">IIB", ppm, ppm, 1)),
         chunk(b"tEXt", b"Software\0" + f"Matplotlib version{matplotlib.__version__}, "
               "https://matplotlib.org/".encode("latin-1")),
-        chunk(b"IDAT", zlib.compress(raw.tobytes(), 1)),
+        chunk(b"IDAT", zlib.compress(raw, 1)),
         chunk(b"IEND", b""),
     ])
+    if path is None:
+        return data
     path = Path(path)
     path.write_bytes(data)
     return path
