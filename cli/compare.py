@@ -66,9 +66,7 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
           examples/experiment/manifest.yaml -o out/compare
     """
     from phri_spring.io.atomic import check_output_path
-    from contextlib import nullcontext
-
-    from phri_spring.workflows.compare import (TrialFigures, compare as run_compare, parse_arms,
+    from phri_spring.workflows.compare import (compare as run_compare, parse_arms,
                                                summary_markdown, write_compare)
 
     arm_list = parse_arms(arms)
@@ -79,20 +77,16 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
         from phri_spring.io.labfiles import LOG_GROUP_KEY
 
         colmap[LOG_GROUP_KEY] = group
-    # with figures, each trial's wrench figure is drawn (on another core) while the next
-    # trials are read and solved; nothing is written before write_compare
-    with (nullcontext() if no_figures else TrialFigures(dpi)) as early:
-        result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness,
-                             columns=colmap, on_trial=early)
-        if uncertainty is not None:  # computed before anything is written: a failure
-            from phri_spring.workflows.uncertainty import compare_bands, write_compare_bands
-            bands = compare_bands(result, draws=uncertainty, seed=seed,  # leaves nothing
-                                  sd=uncertainty_sd)
-        if not no_figures and progress_enabled(None):  # progress: only on a terminal
-            n_fig = 1 + sum(len(tc.conditions) for tc in result.trials)  # bars, wrench, heat
-            info(f"compare: {len(result.trials)} trials analysed; writing {n_fig} figures ...",
-                 quiet)
-        out = write_compare(result, output, figures=not no_figures, early=early)
+    result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness,
+                         columns=colmap)
+    if uncertainty is not None:  # computed before anything is written: a failure leaves nothing
+        from phri_spring.workflows.uncertainty import compare_bands, write_compare_bands
+        bands = compare_bands(result, draws=uncertainty, seed=seed, sd=uncertainty_sd)
+    if not no_figures and progress_enabled(None):  # progress: only on a terminal
+        n_fig = 1 + sum(len(tc.conditions) for tc in result.trials)   # bars, wrench, heat maps
+        info(f"compare: {len(result.trials)} trials analysed; writing {n_fig} figures ...",
+             quiet)
+    out = write_compare(result, output, figures=not no_figures, dpi=dpi)
     if uncertainty is not None:
         write_compare_bands(result, *bands, output, figures=not no_figures, dpi=dpi)
     if not quiet:

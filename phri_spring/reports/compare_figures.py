@@ -28,7 +28,7 @@ from .figure_base import ARM_COLORS, ARM_NAMES, DEFAULT_DPI, _ReusedFigure, _sty
 
 __all__ = ["ARM_COLORS", "ARM_NAMES", "rmse_bars_figure", "heatmap_figure", "wrench_figure",
            "condition_label", "save_figure", "DEFAULT_DPI", "HeatmapRenderer", "render_job",
-           "render_figures", "available_cores", "WrenchRenderer", "write_png", "FigureQueue"]
+           "render_figures", "available_cores", "WrenchRenderer", "write_png"]
 
 
 def condition_label(condition: str, load_n: Optional[float]) -> str:
@@ -231,7 +231,7 @@ def save_figure(fig: Figure, path, dpi: int = DEFAULT_DPI) -> Path:
 
     A PNG is drawn once on a text-caching Agg canvas
     (:mod:`phri_spring.reports.agg_text`) and written by :func:`write_png`:
-    the pixels ``Figure.savefig`` writes, without its second drawing pass.
+    the pixels ``Figure.savefig`` writes, without its extra layout pass.
     """
     path = Path(path)
     with _style():
@@ -282,13 +282,12 @@ def _renderer_for(job) -> "_ReusedFigure":
     return r
 
 
-def render_job(job, dpi: int = DEFAULT_DPI):
+def render_job(job, dpi: int = DEFAULT_DPI) -> str:
     """Draw and save one figure described by ``job = (kind, path, arguments)``.
 
     ``kind`` is ``"heatmap"`` (arguments of :func:`heatmap_figure`, drawn by a
     reused :class:`HeatmapRenderer`), ``"wrench"`` (of :func:`wrench_figure`)
-    or ``"bars"`` (of :func:`rmse_bars_figure`). Returns the path written, or
-    for a heat map or wrench job whose path is None, the PNG file's bytes.
+    or ``"bars"`` (of :func:`rmse_bars_figure`). Returns the path written.
     """
     kind, path, kw = job
     kw = dict(kw)
@@ -300,12 +299,12 @@ def render_job(job, dpi: int = DEFAULT_DPI):
             r.fill(kw.pop("measured"), kw.pop("simulated"), **kw)
         else:
             r.fill(kw.pop("time"), kw.pop("wrench"), kw.pop("conditions"), **kw)
-        out = r.save(path, dpi)
-        return out if path is None else str(path)
-    if kind == "bars":
+        r.save(path, dpi)
+    elif kind == "bars":
         save_figure(rmse_bars_figure(kw.pop("summary"), kw.pop("rmse", None), **kw), path, dpi)
-        return str(path)
-    raise ValueError(f"render_job: unknown figure kind {kind!r}")
+    else:
+        raise ValueError(f"render_job: unknown figure kind {kind!r}")
+    return str(path)
 
 
 def _worker_init() -> None:
@@ -358,12 +357,14 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
 
     This process draws too (``local`` jobs, which need not be picklable, then
     jobs from the front of the list) while ``workers - 1`` worker processes
-    take jobs from the back (see :class:`FigureQueue`). Every image depends
-    only on its own job (the same pixels whichever process draws it), so the
-    output is deterministic. The caller writes into a temporary folder (the
-    figures of a failed run never land); on an error or an interrupt the
-    pending jobs are cancelled and the running ones finished before the error
-    is raised.
+    take jobs from the back. A feeder thread hands each worker its next job as
+    soon as one of its jobs is done (two are kept queued per worker), so no
+    worker waits while this process draws a long figure, and the work is
+    shared whatever each figure costs. Every image depends only on its own
+    job (the same pixels whichever process draws it), so the output is
+    deterministic. The caller writes into a temporary folder (the figures of a
+    failed run never land); on an error or an interrupt the pending jobs are
+    cancelled and the running ones finished before the error is raised.
 
     Parameters
     ----------
@@ -382,128 +383,62 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
     list of str
         The paths written, in the order of ``local`` then ``jobs``.
     """
+    import collections
+
     jobs, local = list(jobs), list(local)
     workers = available_cores() if workers is None else max(1, int(workers))
     workers = min(workers, 1 + len(jobs) // 4)       # a process per few figures at most
-    with FigureQueue(dpi, workers=workers) as queue:
-        queue.run(jobs, local)
-    return [str(j[1]) for j in (*local, *jobs)]
-
-
-class FigureQueue:
-    """Figures drawn on the available cores, the first ones while the caller still computes.
-
-    Entering the queue starts ``workers - 1`` worker processes (forked: they
-    start at once, with matplotlib imported). :meth:`put` hands a job to them
-    at once, while this process goes on with its own work (reading and
-    solving the next trials, say); :meth:`run` then draws the remaining jobs
-    here and on the workers and returns when every figure is written.
-    Leaving the queue stops the workers; on an error or an interrupt the jobs
-    not yet started are cancelled and the running ones finished first.
-    Without process support (or with one worker) everything is drawn here, in
-    :meth:`run`.
-
-    Parameters
-    ----------
-    dpi : int
-        Resolution [dots per inch].
-    workers : int, optional
-        Processes drawing, this one included (default: the available cores).
-
-    Examples
-    --------
-    >>> import tempfile, pathlib, numpy as np
-    >>> folder = pathlib.Path(tempfile.mkdtemp())
-    >>> t = np.linspace(0.0, 2.0, 50)
-    >>> trace = {"time": t, "wrench": np.outer(t, np.ones(6)), "conditions": [""] * 50}
-    >>> with FigureQueue(40, workers=2) as queue:
-    ...     early = queue.put(("wrench", None, trace))      # drawn while we go on
-    ...     _ = queue.run([("wrench", folder / "w.png", trace)])
-    >>> early.result()[:8] == (folder / "w.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    True
-    """
-
-    def __init__(self, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = None):
-        self.dpi = int(dpi)
-        self.workers = available_cores() if workers is None else max(1, int(workers))
-        self.pool = None
-        self._early = []          # futures of the jobs put (drawn by the workers)
-        self._here = []           # jobs put while there are no workers: drawn in run()
-        self._feeder = None
-
-    def __enter__(self) -> "FigureQueue":
-        if self.workers > 1:
-            try:
-                self.pool = _pool(self.workers - 1)
-            except (OSError, ImportError, ValueError):   # no process support: draw here
-                self.pool = None
-        return self
-
-    def put(self, job):
-        """Hand one job to the workers now; returns its future (its result: see render_job)."""
-        if self.pool is None:
-            from concurrent.futures import Future
-
-            fut = Future()
-            self._here.append((job, fut))
-            return fut
-        fut = _submit(self.pool, render_job, job, self.dpi)
-        self._early.append(fut)
-        return fut
-
-    def run(self, jobs, local=()) -> None:
-        """Draw ``local`` jobs here, ``jobs`` here and on the workers; wait for all of them."""
-        import collections
-
-        for job, fut in self._here:              # put without workers: drawn here, first
-            fut.set_result(render_job(job, self.dpi))
-        self._here = []
-        if self.pool is None:
-            for job in (*local, *jobs):
-                render_job(job, self.dpi)
-            return
-        pending = collections.deque(jobs)
-        self._feeder = feeder = _Feeder(self.pool, pending, self.dpi,
-                                        queued=2 * (self.workers - 1), inflight=self._early)
+    written = [str(j[1]) for j in (*local, *jobs)]
+    if workers <= 1:
+        for job in (*local, *jobs):
+            render_job(job, dpi)
+        return written
+    # build the renderers before the workers are forked: they inherit them, built once
+    for job in jobs:
+        if job[0] in ("heatmap", "wrench"):
+            _renderer_for(job)
+    try:
+        pool = _pool(workers - 1)
+    except (OSError, ImportError, ValueError):   # no process support here: draw serially
+        pool = None
+    if pool is None:
+        for job in (*local, *jobs):
+            render_job(job, dpi)
+        return written
+    pending = collections.deque(jobs)
+    feeder = _Feeder(pool, pending, dpi, queued=2 * (workers - 1))
+    try:
         feeder.start()
         for job in local:
-            render_job(job, self.dpi)
+            render_job(job, dpi)
             feeder.check()
         while True:
             try:
                 job = pending.popleft()              # the workers take from the other end
             except IndexError:
                 break
-            render_job(job, self.dpi)
+            render_job(job, dpi)
             feeder.check()
         feeder.finish()                              # waits for the workers' last jobs
-
-    def __exit__(self, *exc) -> None:
-        try:
-            if self._feeder is not None:
-                self._feeder.stop()
-            for fut in self._early:
-                fut.cancel()
-        finally:
-            if self.pool is not None:
-                self.pool.shutdown(wait=True, cancel_futures=True)
-                self.pool = None
+    finally:
+        feeder.stop()
+        pool.shutdown(wait=True, cancel_futures=True)
+    return written
 
 
 class _Feeder:
     """Keeps ``queued`` jobs from the back of ``pending`` submitted to a pool (a thread).
 
-    ``inflight`` are jobs submitted before (waited for and checked too).
     :meth:`check` raises a worker's error in the caller's thread; :meth:`finish`
     waits for the submitted jobs; :meth:`stop` ends the thread and cancels
     what has not started.
     """
 
-    def __init__(self, pool, pending, dpi: int, queued: int, inflight=()):
+    def __init__(self, pool, pending, dpi: int, queued: int):
         import threading
 
         self.pool, self.pending, self.dpi, self.queued = pool, pending, dpi, max(1, queued)
-        self.inflight = set(inflight)
+        self.inflight = set()
         self.error = None
         self.done = threading.Event()      # every job submitted and finished, or an error
         self.halt = threading.Event()

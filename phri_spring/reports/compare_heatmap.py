@@ -214,7 +214,7 @@ class HeatmapRenderer(_ReusedFigure):
     def _short_axes(self):
         return self._label_axes()           # the bar is 80 % of the panels' height
 
-    def _save_png(self, path: Optional[Path], dpi: int, key):
+    def _save_png(self, path: Path, dpi: int, key) -> None:
         """Draw the changing parts, lay the unchanging ones over them, write the PNG.
 
         The panels' axes (tick labels, axis labels, the white cell borders) are
@@ -256,10 +256,10 @@ class HeatmapRenderer(_ReusedFigure):
         rgb *= keep
         rgb += premult
         flat[where, :3] = np.clip(np.rint(rgb), 0, 255).astype(np.uint8)
-        return write_png(path, out, dpi)
+        write_png(path, out, dpi)
 
-    def _write(self, path: Optional[Path], dpi: int, key):
-        if path is None or path.suffix.lower() == ".png":
-            return self._save_png(path, dpi, key)
-        self.fig.savefig(path, dpi=dpi)
-        return path
+    def _write(self, path: Path, dpi: int, key) -> None:
+        if path.suffix.lower() == ".png":
+            self._save_png(path, dpi, key)
+        else:
+            self.fig.savefig(path, dpi=dpi)

@@ -13,7 +13,6 @@ used, never pyplot.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -136,19 +135,16 @@ class _ReusedFigure:
             self._layouts.setdefault(start, []).append(entry)
         return tuple(np.round([v for o, a in entry[0][0] for v in (*o.bounds, *a.bounds)], 9))
 
-    def _write(self, path: Optional[Path], dpi: int, key):
-        if path is None or path.suffix.lower() == ".png":
+    def _write(self, path: Path, dpi: int, key) -> None:
+        if path.suffix.lower() == ".png":
             self._canvas.draw()
-            return write_png(path, np.asarray(self._canvas.buffer_rgba()), dpi)
-        self.fig.savefig(path, dpi=dpi)
-        return path
+            write_png(path, np.asarray(self._canvas.buffer_rgba()), dpi)
+        else:
+            self.fig.savefig(path, dpi=dpi)
 
-    def save(self, path, dpi: int = DEFAULT_DPI):
-        """Save the current figure (PNG, PDF or SVG by the extension), reusing layouts.
-
-        Returns the path written, or with ``path=None`` the PNG file's bytes.
-        """
-        path = None if path is None else Path(path)
+    def save(self, path, dpi: int = DEFAULT_DPI) -> Path:
+        """Save the current figure (PNG, PDF or SVG by the extension), reusing layouts."""
+        path = Path(path)
         fig = self.fig
         dpi = int(dpi)
         if self._canvas is None:
@@ -162,19 +158,19 @@ class _ReusedFigure:
             # placeholder, savefig draws twice: once for the layout, once for the pixels)
             engine, fig._layout_engine = fig._layout_engine, None
             try:
-                return self._write(path, dpi, key)
+                self._write(path, dpi, key)
             finally:
                 fig._layout_engine = engine
+        return path
 
 
-def write_png(path, rgba, dpi: float):
+def write_png(path, rgba, dpi: float) -> Path:
     """Write pixels (h, w, 4) uint8 as a PNG, RGB when every pixel is opaque.
 
-    Returns the path, or with ``path=None`` the file's bytes (nothing written).
-
-    The same pixels as matplotlib's PNG writer (lossless), about twice as fast:
-    rows are stored unfiltered and deflated once (Pillow tries a filter per row,
-    which costs more than it saves on figures' flat colours). Carries the
+    The same pixels as matplotlib's PNG writer (lossless), several times as
+    fast: rows are stored unfiltered and deflated once at level 1 (Pillow tries
+    a filter per row, which costs more than it saves on figures' flat colours;
+    level 1 takes half the time of level 6 for files a fifth larger). Carries the
     resolution (pHYs) and the writing software, as matplotlib's does.
     """
     import struct
@@ -205,8 +201,6 @@ def write_png(path, rgba, dpi: float):
         chunk(b"IDAT", zlib.compress(raw, 1)),
         chunk(b"IEND", b""),
     ])
-    if path is None:
-        return data
     path = Path(path)
     path.write_bytes(data)
     return path

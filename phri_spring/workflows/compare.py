@@ -31,7 +31,7 @@ import dataclasses
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Optional, Sequence, Union
+from typing import Optional, Sequence, Union
 
 import numpy as np
 
@@ -43,7 +43,7 @@ from ..physics.metrics import mean_and_se, rmse as rmse_eq1, zero_on
 from ..physics.solver import solve
 from .common import ARMS, cuff_wrench, model_from_config
 
-__all__ = ["compare", "write_compare", "TrialFigures", "CompareResult", "TrialComparison", "CompareOutputs",
+__all__ = ["compare", "write_compare", "CompareResult", "TrialComparison", "CompareOutputs",
            "parse_arms", "summary_markdown", "DEFAULT_ARMS", "RMSE_COLUMNS", "SUMMARY_COLUMNS"]
 
 #: the arm models compared by default, in the paper's order
@@ -178,8 +178,7 @@ def _with_tissue(cfg: Config, tissue_stiffness) -> Config:
 
 
 def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT_ARMS,
-            tissue_stiffness=None, columns: Optional[dict] = None,
-            on_trial: Optional[Callable[[Config, TrialData], None]] = None) -> CompareResult:
+            tissue_stiffness=None, columns: Optional[dict] = None) -> CompareResult:
     """Compare the rigid- and compliant-arm predictions with a sensorized-cuff experiment.
 
     Parameters
@@ -196,10 +195,6 @@ def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT
     columns : dict, optional
         Map from spec names (``time``, ``Fx`` ...) to the trial tables' names;
         merged over the config's ``load_cell.columns``.
-    on_trial : callable, optional
-        Called as ``on_trial(config, trial_data)`` as soon as each trial table
-        is read, before the next one is (e.g. a :class:`TrialFigures`, which
-        starts drawing the trial's wrench figure meanwhile).
 
     Returns
     -------
@@ -227,11 +222,8 @@ def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT
     models = {arm: model_from_config(cfg, arm) for arm in arms}
     colmap = dict(cfg.log_columns)
     colmap.update(columns or {})
-    datas = []
-    for t in man.trials:
-        datas.append(read_trial(t, cfg.labels, columns=colmap, row_labels=cfg.row_labels))
-        if on_trial is not None:
-            on_trial(cfg, datas[-1])
+    datas = [read_trial(t, cfg.labels, columns=colmap, row_labels=cfg.row_labels)
+             for t in man.trials]
     if not any(len(d.conditions) > 1 for d in datas):
         raise DataError("no trial has a condition besides its baseline; nothing to compare",
                         file=man.path, key="trials")
@@ -448,73 +440,8 @@ def _heat_title(tc: TrialComparison, j: int, cfg: Config) -> str:
             f"Mx {zw[3]:+.3f}, My {zw[4]:+.3f}, Mz {zw[5]:+.3f} {mu}")
 
 
-def _wrench_job(cfg: Config, d: TrialData, path) -> tuple:
-    """The figure job of a trial's load-cell wrench over time (Fig. 8a)."""
-    s = d.spec
-    return ("wrench", path,
-            {"time": d.time, "wrench": d.wrench_series, "conditions": d.condition_series,
-             "title": f"{s.experiment} {s.direction}, trial {s.trial}: load-cell wrench",
-             "force_unit": cfg.force_unit, "moment_unit": cfg.moment_unit})
-
-
-class TrialFigures:
-    """Draws each trial's wrench figure while :func:`compare` reads and solves the next trials.
-
-    A context manager holding the figure workers
-    (:class:`~phri_spring.reports.compare_figures.FigureQueue`): pass it to
-    :func:`compare` as ``on_trial``, then to :func:`write_compare` as
-    ``early``, which writes the figures drawn meanwhile (they are kept in
-    memory until then: nothing is written before :func:`write_compare`) and
-    shares the rest of the figures with the same workers. The files are those
-    :func:`write_compare` writes alone.
-
-    Parameters
-    ----------
-    dpi : int, optional
-        Resolution of the figures [dots per inch] (default 170).
-    workers : int, optional
-        Processes drawing, this one included (default: the available cores).
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> out = pathlib.Path(tempfile.mkdtemp()) / "cmp"
-    >>> with TrialFigures(dpi=30) as figs:                      # doctest: +SKIP
-    ...     result = compare("configs/harmony_upper_arm.yaml",
-    ...                      "examples/experiment/manifest.yaml", on_trial=figs)
-    ...     written = write_compare(result, out, early=figs)
-    """
-
-    def __init__(self, dpi: Optional[int] = None, *, workers: Optional[int] = None):
-        from ..reports.compare_figures import DEFAULT_DPI, FigureQueue
-
-        self.queue = FigureQueue(DEFAULT_DPI if dpi is None else int(dpi), workers=workers)
-        self._drawn = {}         # id(trial data) -> (the data, the future of its PNG's bytes)
-
-    @property
-    def dpi(self) -> int:
-        return self.queue.dpi
-
-    def __enter__(self) -> "TrialFigures":
-        self.queue.__enter__()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self._drawn.clear()
-        self.queue.__exit__(*exc)
-
-    def __call__(self, cfg: Config, data: TrialData) -> None:
-        self._drawn[id(data)] = (data, self.queue.put(_wrench_job(cfg, data, None)))
-
-    def take(self, data: TrialData):
-        """The future of ``data``'s wrench figure if it is being drawn, else None."""
-        entry = self._drawn.pop(id(data), None)
-        return entry[1] if entry is not None and entry[0] is data else None
-
-
 def write_compare(result: CompareResult, outdir, *, figures: bool = True,
-                  dpi: Optional[int] = None, workers: Optional[int] = None,
-                  early: Optional[TrialFigures] = None) -> CompareOutputs:
+                  dpi: Optional[int] = None, workers: Optional[int] = None) -> CompareOutputs:
     """Write the tables, figures and report of a comparison into ``outdir``.
 
     Files: ``rmse.csv``, ``summary.csv``, ``loads.csv``, ``conditions.csv``,
@@ -526,9 +453,7 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
     Everything is written into a temporary folder beside ``outdir`` that
     replaces it at the end: a failed run leaves nothing behind. The figures are
     drawn on ``workers`` processes (default: the available cores; they are
-    independent, and the images do not depend on the number of processes),
-    or on those of ``early`` (a :class:`TrialFigures` that :func:`compare` fed,
-    whose wrench figures are then already drawn; its resolution is used).
+    independent, and the images do not depend on the number of processes).
 
     Raises
     ------
@@ -538,11 +463,6 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
     """
     from ..reports.compare_figures import DEFAULT_DPI, render_figures
 
-    if early is not None:
-        if dpi is not None and int(dpi) != early.dpi:
-            raise ValueError(f"write_compare: dpi={dpi} but the early figures are drawn at "
-                             f"{early.dpi}")
-        dpi = early.dpi
     dpi = DEFAULT_DPI if dpi is None else int(dpi)
     outdir = Path(outdir)
     check_output_path(outdir, result.input_paths, option="-o/--output", directory=True)
@@ -573,15 +493,16 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
             (tmp / "heatmaps").mkdir()
             (tmp / "wrench").mkdir()
             used_h, used_w = set(), set()
-            drawn = []               # (future of the PNG's bytes, path) of the early figures
             for tc in result.trials:
                 s = tc.spec
                 wname = _unique(_slug(s.experiment, s.direction, s.trial), used_w) + ".png"
-                fut = early.take(tc.data) if early is not None else None
-                if fut is not None:
-                    drawn.append((fut, tmp / "wrench" / wname))
-                else:
-                    jobs.append(_wrench_job(cfg, tc.data, tmp / "wrench" / wname))
+                d = tc.data
+                jobs.append(("wrench", tmp / "wrench" / wname,
+                             {"time": d.time, "wrench": d.wrench_series,
+                              "conditions": d.condition_series,
+                              "title": f"{s.experiment} {s.direction}, trial {s.trial}: "
+                                       "load-cell wrench",
+                              "force_unit": cfg.force_unit, "moment_unit": cfg.moment_unit}))
                 written.append(outdir / "wrench" / wname)
                 heat = []
                 for j, c in enumerate(tc.conditions):
@@ -602,13 +523,7 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
             # maps in order of their colour scale keep the figures sharing a layout together
             jobs.sort(key=lambda j: (j[0] == "heatmap", _scale(j[2]) if j[0] == "heatmap"
                                      else 0.0))
-            if early is not None:
-                early.queue.run(jobs, local)
-            else:
-                render_figures(jobs, dpi, workers=workers, local=local)
-            for fut, path in drawn:
-                with naming(path):
-                    path.write_bytes(fut.result())
+            render_figures(jobs, dpi, workers=workers, local=local)
         (tmp / "report.md").write_text(_report(result, fig_index, figures), encoding="utf-8")
         written.append(outdir / "report.md")
     return CompareOutputs(outdir=outdir, files=written)
