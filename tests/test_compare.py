@@ -392,15 +392,18 @@ def test_heatmap_figure_panels_and_shared_symmetric_scale():
     assert titles[0].startswith("Measured")
     assert titles[1] == "Rigid arm\nRMSE 2.50 N" and titles[2] == "Compliant arm\nRMSE 0.75 N"
     assert axes[3].get_ylabel() == "zeroed load [N]"
-    clims = {ax.images[0].get_clim() for ax in axes[:3]}
+    cells = [ax.collections[0] for ax in axes[:3]]                # one quad mesh per map
+    clims = {c.get_clim() for c in cells}
     assert clims == {(-9.0, 9.0)}                                 # one scale, centred on 0
-    assert all(ax.images[0].get_cmap().name == "RdBu_r" for ax in axes[:3])
+    assert all(c.get_cmap().name == "RdBu_r" for c in cells)
     texts = [t.get_text() for t in axes[1].texts]
     assert len(texts) == 21 and texts[0] == "-1.0" and texts[-1] == "9.0"
     assert axes[0].texts[3].get_text() == "0.0"                  # never "-0.0"
     assert [t.get_text() for t in axes[0].get_yticklabels()] == list(ROWS)
     assert [t.get_text() for t in axes[0].get_xticklabels()] == [str(i) for i in range(7)]
-    assert axes[0].images[0].get_array().shape == (3, 7)
+    np.testing.assert_array_equal(np.asarray(cells[0].get_array()).reshape(3, 7),
+                                  meas.reshape(3, 7))             # the loads, row A first
+    assert axes[0].yaxis_inverted()                               # row A on top
     assert fig._suptitle.get_text().startswith("E h, trial 1, L1")
 
 

@@ -127,13 +127,15 @@ class HeatmapRenderer(_ReusedFigure):
             fig = Figure(figsize=(max(self.n_panels * (n_angles * cell + 0.55) + 1.1, 5.5),
                                   n_rows * cell + 1.75), layout="constrained")
             axes = fig.subplots(1, self.n_panels, squeeze=False)[0]
-            self.images, self.texts = [], []
+            self.meshes, self.texts = [], []
             zeros = np.zeros((n_rows, n_angles))
             for j, ax in enumerate(axes):
-                # colours looked up on the 3 x 7 cells, then enlarged (the same pixels as
-                # enlarging the values first, and a third of the work)
-                im = ax.imshow(zeros, cmap=cmap, vmin=-1.0, vmax=1.0, aspect="equal",
-                               interpolation="nearest", interpolation_stage="rgba")
+                # one quadrilateral per cell (drawn as 21 polygons, not resampled as an image)
+                im = ax.pcolormesh(np.arange(-0.5, n_angles), np.arange(-0.5, n_rows), zeros,
+                                   cmap=cmap, vmin=-1.0, vmax=1.0, shading="flat")
+                ax.set_aspect("equal")
+                ax.set_xlim(-0.5, n_angles - 0.5)
+                ax.set_ylim(n_rows - 0.5, -0.5)          # row A on top
                 ax.set_title(" ")
                 ax.set_xticks(np.arange(n_angles), [str(i) for i in range(n_angles)])
                 ax.set_yticks(np.arange(n_rows), list(self.row_labels))
@@ -147,12 +149,12 @@ class HeatmapRenderer(_ReusedFigure):
                 ax.tick_params(which="minor", length=0)
                 for side in ax.spines.values():
                     side.set_visible(False)
-                self.images.append(im)
+                self.meshes.append(im)
                 # the values sit inside their cells: they never move the layout
                 self.texts.append([[ax.add_artist(_CellText(c, r, "", ha="center", va="center",
                                                             fontsize=7, in_layout=False))
                                     for c in range(n_angles)] for r in range(n_rows)])
-            self.cbar = fig.colorbar(self.images[-1], ax=list(axes), shrink=0.8, pad=0.02,
+            self.cbar = fig.colorbar(self.meshes[-1], ax=list(axes), shrink=0.8, pad=0.02,
                                      aspect=15)
             self.cbar.set_label("zeroed load [N]")
             self.suptitle = fig.suptitle(" ", fontsize=9.5)
@@ -183,9 +185,9 @@ class HeatmapRenderer(_ReusedFigure):
         vmax = float(np.max(np.abs(finite))) if finite.size else 0.0
         vmax = vmax if vmax > 0 else 1.0
         with _style():
-            for ax, im, texts, (name, _), grid in zip(self.axes, self.images, self.texts,
+            for ax, im, texts, (name, _), grid in zip(self.axes, self.meshes, self.texts,
                                                       panels, grids):
-                im.set_data(grid)
+                im.set_array(grid)
                 im.set_clim(-vmax, vmax)
                 ax.set_title(name)
                 for r in range(n_rows):
@@ -219,14 +221,14 @@ class HeatmapRenderer(_ReusedFigure):
 
         The panels' axes (tick labels, axis labels, the white cell borders) are
         the same in every heat map of a layout: they are drawn once, on a
-        transparent layer, and laid over the rest (they overlap only the images,
+        transparent layer, and laid over the rest (they overlap only the cells,
         which they cover, as when drawn in one pass).
         """
         fig = self.fig
         fixed = [a for ax in self.axes for a in (ax.xaxis, ax.yaxis)]   # drawn once per layout
         layer = self._static.get(key)
         if layer is None:
-            hide = [fig.patch, *(ax.patch for ax in self.axes), *self.images, self.suptitle,
+            hide = [fig.patch, *(ax.patch for ax in self.axes), *self.meshes, self.suptitle,
                     self.cbar.ax, *(ax.title for ax in self.axes),
                     *(t for rows in self.texts for row in rows for t in row)]
             shown = [a.get_visible() for a in hide]
