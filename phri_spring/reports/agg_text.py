@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from matplotlib import rcParams
 from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
 
 __all__ = ["AVAILABLE", "CachedTextCanvas"]
@@ -43,9 +44,15 @@ try:                                             # the steps RendererAgg.draw_te
 except ImportError:                              # pragma: no cover - older matplotlib
     AVAILABLE = False
 
+#: the rcParams that decide which font files a FontProperties resolves to
+_FONT_RC = ("font.family", "font.style", "font.variant", "font.weight", "font.stretch",
+            "font.size", "font.serif", "font.sans-serif", "font.cursive", "font.fantasy",
+            "font.monospace", "text.hinting_factor", "text.hinting")
+
 #: most strings and glyphs kept (a cache that reaches this is emptied, not grown)
 _MAX_ENTRIES = 50_000
-_LAYOUTS: dict = {}     # (font, size, dpi, hinting, text) -> ((font, glyph, dx, dy), ...)
+_LAYOUTS: dict = {}     # (font properties, font rcParams, dpi, hinting, text)
+#                           -> ((font, glyph, dx, dy), ...)
 _GLYPHS: dict = {}      # (font, size, dpi, hinting, mode, matrix, glyph, phase) -> bitmap
 
 
@@ -62,17 +69,17 @@ class _CachedTextRenderer(RendererAgg):
         if ismath or (mtext is not None and (mtext.get_fontfeatures() is not None
                                              or mtext.get_language() is not None)):
             return super().draw_text(gc, x, y, s, prop, angle, ismath=ismath, mtext=mtext)
-        font = self._prepare_font(prop)
         size = prop.get_size_in_points()
         flags = get_hinting_flag()
-        key = (id(font), size, self.dpi, flags, s)
-        cached = _LAYOUTS.get(key)
-        if cached is None:
+        # the fonts a FontProperties resolves to depend on it and on the font rcParams
+        key = (prop, tuple(str(rcParams[k]) for k in _FONT_RC), self.dpi, flags, s)
+        items = _LAYOUTS.get(key)
+        if items is None:
+            font = self._prepare_font(prop)
             items = tuple((it.ft_object, it.glyph_index, it.x, it.y)
                           for it in font._layout(s, flags=flags, features=None, language=None))
-            # the font is kept with its layouts: its id is not reused while they are cached
-            cached = _bounded(_LAYOUTS)[key] = (font, items)
-        items = cached[1]
+            # a copy of the properties in the key: the caller's may change later
+            _bounded(_LAYOUTS)[(prop.copy(),) + key[1:]] = items
         cos = math.cos(math.radians(angle))
         sin = math.sin(math.radians(angle))
         matrix = (0x10000 * np.array([[cos, -sin], [sin, cos]])).round().astype(int)
