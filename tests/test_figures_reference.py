@@ -236,3 +236,28 @@ def test_save_figure_writes_the_pixels_of_savefig(tmp_path, kind):
     with _style():
         fig.savefig(theirs, dpi=83)
     np.testing.assert_array_equal(_png_pixels(ours), _png_pixels(theirs))
+
+
+@pytest.mark.parametrize("rc", [{"savefig.bbox": "tight"}, {"savefig.transparent": True},
+                                {"savefig.facecolor": "0.9"}])
+def test_save_figure_honours_the_users_savefig_settings(tmp_path, rc):
+    # a matplotlibrc asking savefig for a tight box or another background is obeyed
+    import matplotlib
+
+    from phri_spring.reports.compare_figures import HeatmapRenderer
+
+    m, s, e, t = heatmap_inputs()
+    with matplotlib.rc_context(rc):
+        ours = save_figure(wrench_figure(*wrench_inputs(), title="x"), tmp_path / "w.png", 50)
+        fig = wrench_figure(*wrench_inputs(), title="x")
+        from phri_spring.reports.figure_base import _style
+
+        with _style():
+            fig.savefig(tmp_path / "ref.png", dpi=50)
+        r = HeatmapRenderer(3, row_labels=("A", "B", "C"), n_angles=7)
+        r.fill(m, s, title=t, rmse=e)
+        reused = r.save(tmp_path / "h.png", 50)
+        fresh = save_figure(heatmap_figure(m, s, row_labels=("A", "B", "C"), n_angles=7,
+                                           title=t, rmse=e), tmp_path / "hf.png", 50)
+    np.testing.assert_array_equal(_png_pixels(ours), _png_pixels(tmp_path / "ref.png"))
+    assert _png_pixels(reused).shape == _png_pixels(fresh).shape

@@ -24,7 +24,8 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .compare_heatmap import HeatmapRenderer, heatmap_figure
-from .figure_base import ARM_COLORS, ARM_NAMES, DEFAULT_DPI, _ReusedFigure, _style, write_png
+from .figure_base import (ARM_COLORS, ARM_NAMES, DEFAULT_DPI, _ReusedFigure, _style,
+                          plain_savefig, write_png)
 
 __all__ = ["ARM_COLORS", "ARM_NAMES", "rmse_bars_figure", "heatmap_figure", "wrench_figure",
            "condition_label", "save_figure", "DEFAULT_DPI", "HeatmapRenderer", "render_job",
@@ -235,7 +236,7 @@ def save_figure(fig: Figure, path, dpi: int = DEFAULT_DPI) -> Path:
     """
     path = Path(path)
     with _style():
-        if path.suffix.lower() != ".png":
+        if path.suffix.lower() != ".png" or not plain_savefig():
             fig.savefig(path, dpi=dpi)
             return path
         from .agg_text import CachedTextCanvas

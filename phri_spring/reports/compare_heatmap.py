@@ -16,7 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.text import Text
 
-from .figure_base import ARM_NAMES, _ReusedFigure, _style, write_png
+from .figure_base import ARM_NAMES, _ReusedFigure, _style, plain_savefig, write_png
 
 __all__ = ["heatmap_figure", "HeatmapRenderer"]
 
@@ -261,7 +261,7 @@ class HeatmapRenderer(_ReusedFigure):
         write_png(path, out, dpi)
 
     def _write(self, path: Path, dpi: int, key) -> None:
-        if path.suffix.lower() == ".png":
+        if path.suffix.lower() == ".png" and plain_savefig():
             self._save_png(path, dpi, key)
         else:
             self.fig.savefig(path, dpi=dpi)
