@@ -49,3 +49,27 @@ def test_worker_error_leaves_nothing(tmp_path, result, monkeypatch):
     with pytest.raises(ValueError, match="expected 21 values"):
         write_compare(result, tmp_path / "out", workers=2, dpi=40)
     assert os.listdir(tmp_path) == []
+
+
+def test_workers_are_forked_before_any_other_thread_runs(tmp_path, result):
+    # the pool forks its workers on the first submission; a fork from the feeder thread while
+    # this thread draws hands the workers fonts in mid-glyph ("FT_Load_Glyph ... too many
+    # hints" in a worker, seen once): every fork must come from this thread, alone
+    import threading
+
+    seen = []
+    armed = [True]
+
+    def before_fork():
+        if armed[0]:
+            seen.append((threading.current_thread() is threading.main_thread(),
+                         [t.name for t in threading.enumerate()]))
+
+    os.register_at_fork(before=before_fork)
+    try:
+        write_compare(result, tmp_path / "out", workers=2, dpi=40)
+    finally:
+        armed[0] = False
+    assert seen, "no worker was forked"
+    for in_main, threads in seen:
+        assert in_main and "phri-figure-feeder" not in threads, threads

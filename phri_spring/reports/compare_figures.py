@@ -409,6 +409,10 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
     pending = collections.deque(jobs)
     feeder = _Feeder(pool, pending, dpi, queued=2 * (workers - 1))
     try:
+        # the first jobs are submitted here, before any other thread runs: the pool forks its
+        # workers on the first submission, and a fork while this thread draws (FreeType in
+        # mid-glyph) would hand the workers fonts in a broken state
+        feeder.fill()
         feeder.start()
         for job in local:
             render_job(job, dpi)
@@ -430,9 +434,11 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
 class _Feeder:
     """Keeps ``queued`` jobs from the back of ``pending`` submitted to a pool (a thread).
 
-    :meth:`check` raises a worker's error in the caller's thread; :meth:`finish`
-    waits for the submitted jobs; :meth:`stop` ends the thread and cancels
-    what has not started.
+    :meth:`fill` tops the workers up (call it once before :meth:`start`: the
+    first submission forks the workers, which must happen while no other
+    thread draws); :meth:`check` raises a worker's error in the caller's
+    thread; :meth:`finish` waits for the submitted jobs; :meth:`stop` ends
+    the thread and cancels what has not started.
     """
 
     def __init__(self, pool, pending, dpi: int, queued: int):
@@ -454,12 +460,7 @@ class _Feeder:
 
         try:
             while not self.halt.is_set():
-                while len(self.inflight) < self.queued:
-                    try:
-                        job = self.pending.pop()
-                    except IndexError:
-                        break
-                    self.inflight.add(_submit(self.pool, render_job, job, self.dpi))
+                self.fill()
                 if not self.inflight:
                     break                       # nothing left for the workers
                 done, _ = wait(self.inflight, timeout=0.2, return_when=FIRST_COMPLETED)
@@ -470,6 +471,15 @@ class _Feeder:
             self.error = exc
         finally:
             self.done.set()
+
+    def fill(self) -> None:
+        """Submit jobs from the back of ``pending`` until ``queued`` are in flight."""
+        while len(self.inflight) < self.queued:
+            try:
+                job = self.pending.pop()
+            except IndexError:
+                break
+            self.inflight.add(_submit(self.pool, render_job, job, self.dpi))
 
     def check(self) -> None:
         if self.error is not None:
