@@ -54,6 +54,7 @@ class _ReusedFigure:
         self._layouts = {}       # signature -> [(positions of every axes and the suptitle,
         #                            the signature at those positions), ...]
         self._measure = None     # a renderer that measures texts
+        self._sizes = {}         # (text, font properties, dpi) -> its width and height [px]
         self._canvas = None      # the Agg canvas PNGs are drawn on
         self._initial = self._positions()   # the state a new figure's layout starts from
 
@@ -91,8 +92,7 @@ class _ReusedFigure:
             labels = axis.get_major_formatter().format_ticks(locs)
             ticks = axis.get_majorticklabels()
             prop = ticks[0].get_fontproperties() if ticks else self.suptitle.get_fontproperties()
-            ext = [self._measure.get_text_width_height_descent(t, prop, ismath=False)[:2]
-                   for t in labels]
+            ext = [self._text_size(t, prop, dpi) for t in labels]
             across, along = (0, 1) if axis.axis_name == "y" else (1, 0)
             width = max((e[across] for e in ext), default=0.0)
             # how far the end labels reach past the ends of the axis (they move the layout
@@ -107,6 +107,17 @@ class _ReusedFigure:
         titles = tuple(a.get_title().count("\n") for a in self.fig.axes)
         return (titles, self.suptitle.get_visible(), self.suptitle.get_text().count("\n"),
                 tuple(sizes))
+
+    def _text_size(self, text: str, prop, dpi: int) -> tuple:
+        """Width and height [px] of a tick label, measured once per string, font and dpi."""
+        key = (text, prop, dpi)
+        size = self._sizes.get(key)
+        if size is None:
+            if len(self._sizes) >= 10_000:
+                self._sizes.clear()
+            size = self._measure.get_text_width_height_descent(text, prop, ismath=False)[:2]
+            self._sizes[(text, prop.copy(), dpi)] = size
+        return size
 
     def _layout(self, dpi: int):
         """Set the constrained layout of the current values; return its key.
@@ -192,9 +203,11 @@ def write_png(path, rgba, dpi: float) -> Path:
 
     import matplotlib
 
-    rgba = np.asarray(rgba, dtype=np.uint8)
+    rgba = np.ascontiguousarray(rgba, dtype=np.uint8)
     h, w = rgba.shape[:2]
-    opaque = bool(np.all(rgba[..., 3] == 255))
+    # every alpha byte 255: one pass over the pixels as 32-bit words (native byte order)
+    alpha = np.frombuffer(np.uint8([0, 0, 0, 255]).tobytes(), dtype=np.uint32)[0]
+    opaque = bool(np.all(rgba.view(np.uint32) & alpha == alpha))
     px = rgba[..., :3] if opaque else rgba
     depth = px.shape[2]
     raw = np.empty((h, 1 + w * depth), dtype=np.uint8)
