@@ -82,3 +82,19 @@ def test_caches_stay_bounded(monkeypatch):
     fig = _text_figure([f"{v:.1f}" for v in np.linspace(-50, 50, 40)], 100)
     np.testing.assert_array_equal(_pixels(CachedTextCanvas, fig), _pixels(FigureCanvasAgg, fig))
     assert len(agg_text._GLYPHS) <= 10 and len(agg_text._LAYOUTS) <= 10
+
+
+def test_threads_draw_with_their_own_fonts():
+    # figures drawn at once in several threads (each its own figure): the same pixels as one
+    # thread alone; cached layouts never hand one thread's font objects to another
+    from concurrent.futures import ThreadPoolExecutor
+
+    strings = [f"{v:.1f}" for v in np.linspace(-30, 30, 25)] + ["RMSE 1.25 N", "N·m"]
+    alone = _pixels(FigureCanvasAgg, _text_figure(strings, 90, seed=5))
+    with ThreadPoolExecutor(4) as pool:
+        got = list(pool.map(lambda k: _pixels(CachedTextCanvas, _text_figure(strings, 90, seed=5)),
+                            range(8)))
+    for g in got:
+        np.testing.assert_array_equal(g, alone)
+    owners = {key[-1] for key in agg_text._LAYOUTS}
+    assert len(owners) >= 2 or not agg_text.AVAILABLE       # layouts kept per thread

@@ -27,6 +27,7 @@ ordinary :class:`FigureCanvasAgg` (:data:`AVAILABLE` says which).
 from __future__ import annotations
 
 import math
+import threading
 
 import numpy as np
 from matplotlib import rcParams
@@ -51,7 +52,7 @@ _FONT_RC = ("font.family", "font.style", "font.variant", "font.weight", "font.st
 
 #: most strings and glyphs kept (a cache that reaches this is emptied, not grown)
 _MAX_ENTRIES = 50_000
-_LAYOUTS: dict = {}     # (font properties, font rcParams, dpi, hinting, text)
+_LAYOUTS: dict = {}     # (font properties, font rcParams, dpi, hinting, text, thread)
 #                           -> ((font, glyph, dx, dy), ...)
 _GLYPHS: dict = {}      # (font, size, dpi, hinting, mode, matrix, glyph, phase) -> bitmap
 
@@ -71,8 +72,10 @@ class _CachedTextRenderer(RendererAgg):
             return super().draw_text(gc, x, y, s, prop, angle, ismath=ismath, mtext=mtext)
         size = prop.get_size_in_points()
         flags = get_hinting_flag()
-        # the fonts a FontProperties resolves to depend on it and on the font rcParams
-        key = (prop, tuple(str(rcParams[k]) for k in _FONT_RC), self.dpi, flags, s)
+        # the fonts a FontProperties resolves to depend on it and on the font rcParams; each
+        # thread has its own font objects (matplotlib's rule: they are not thread-safe)
+        key = (prop, tuple(str(rcParams[k]) for k in _FONT_RC), self.dpi, flags, s,
+               threading.get_ident())
         items = _LAYOUTS.get(key)
         if items is None:
             font = self._prepare_font(prop)
