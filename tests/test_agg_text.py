@@ -98,3 +98,23 @@ def test_threads_draw_with_their_own_fonts():
         np.testing.assert_array_equal(g, alone)
     owners = {key[-1] for key in agg_text._LAYOUTS}
     assert len(owners) >= 2 or not agg_text.AVAILABLE       # layouts kept per thread
+
+
+def _forked_draw(strings):
+    return len(agg_text._LAYOUTS), _pixels(CachedTextCanvas, _text_figure(strings, 90, seed=9))
+
+
+def test_a_forked_child_uses_its_own_fonts():
+    # the font objects kept with the layouts read their files through descriptions a forked
+    # child shares with its parent ("failed to load glyph" when both read at once): a child
+    # starts with no layouts of its parent's, and draws the same pixels
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    strings = ["12.5", "-3.0", "RMSE 0.75 N", "zeroed load [N]"]
+    parent = _pixels(CachedTextCanvas, _text_figure(strings, 90, seed=9))
+    assert agg_text._LAYOUTS or not agg_text.AVAILABLE
+    with ProcessPoolExecutor(1, mp_context=mp.get_context("fork")) as pool:
+        inherited, child = pool.submit(_forked_draw, strings).result()
+    assert inherited == 0
+    np.testing.assert_array_equal(child, parent)

@@ -52,9 +52,9 @@ def test_worker_error_leaves_nothing(tmp_path, result, monkeypatch):
 
 
 def test_workers_are_forked_before_any_other_thread_runs(tmp_path, result):
-    # the pool forks its workers on the first submission; a fork from the feeder thread while
-    # this thread draws hands the workers fonts in mid-glyph ("FT_Load_Glyph ... too many
-    # hints" in a worker, seen once): every fork must come from this thread, alone
+    # the pool forks its workers on the first submission: that must come from this thread
+    # before the feeder thread starts (a fork while another thread runs may copy a lock or a
+    # font in mid-use into the child; Python 3.12 warns about it)
     import threading
 
     seen = []

@@ -27,6 +27,7 @@ ordinary :class:`FigureCanvasAgg` (:data:`AVAILABLE` says which).
 from __future__ import annotations
 
 import math
+import os
 import threading
 
 import numpy as np
@@ -55,6 +56,13 @@ _MAX_ENTRIES = 50_000
 _LAYOUTS: dict = {}     # (font properties, font rcParams, dpi, hinting, text, thread)
 #                           -> ((font, glyph, dx, dy), ...)
 _GLYPHS: dict = {}      # (font, size, dpi, hinting, mode, matrix, glyph, phase) -> bitmap
+
+
+# a forked child must not use its parent's font objects: they read their font files through
+# file descriptions the two processes share, and reading glyphs in both at once breaks them
+# (matplotlib clears its own font cache in a forked child for the same reason)
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_LAYOUTS.clear)
 
 
 def _bounded(cache: dict) -> dict:

@@ -409,9 +409,9 @@ def render_figures(jobs, dpi: int = DEFAULT_DPI, *, workers: Optional[int] = Non
     pending = collections.deque(jobs)
     feeder = _Feeder(pool, pending, dpi, queued=2 * (workers - 1))
     try:
-        # the first jobs are submitted here, before any other thread runs: the pool forks its
-        # workers on the first submission, and a fork while this thread draws (FreeType in
-        # mid-glyph) would hand the workers fonts in a broken state
+        # the first jobs are submitted here, before the feeder thread runs: the pool forks its
+        # workers on the first submission, and a fork while another thread runs may copy a
+        # lock or a font in mid-use into the child
         feeder.fill()
         feeder.start()
         for job in local:
