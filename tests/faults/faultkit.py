@@ -99,9 +99,22 @@ def phri(*args, cwd=None, umask=None, fsize=None, timeout=120) -> Run:
     return Run(res.returncode, res.stdout, res.stderr)
 
 
-def start_phri(*args, cwd=None) -> subprocess.Popen:
+def _signals_at_default() -> None:
+    # the signal tests send SIGTERM and SIGHUP on purpose: the child starts with both at their
+    # defaults even when the test run itself ignores them (pytest under nohup, say, whose
+    # SIG_IGN a child inherits and phri rightly keeps)
+    for sig in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(sig, signal.SIG_DFL)
+
+
+def start_phri(*args, cwd=None, keep_signals: bool = False) -> subprocess.Popen:
+    """Start ``phri ARGS`` as a real process, SIGTERM and SIGHUP at their defaults in it.
+
+    ``keep_signals`` leaves them as this process has them (inherited, as a shell would).
+    """
     return subprocess.Popen(command(*args), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, cwd=cwd)
+                            text=True, cwd=cwd,
+                            preexec_fn=None if keep_signals else _signals_at_default)
 
 
 def wait_for(predicate, proc: subprocess.Popen, timeout: float = 60.0) -> None:

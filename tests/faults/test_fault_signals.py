@@ -63,3 +63,20 @@ def test_fit_stiffness_interrupted_while_writing_plots(inputs, out):
     run = _interrupt(proc, "SIGHUP", out, settle=0.0)
     assert_fault(run, 129, r"interrupted \(SIGHUP\)", before=before, folders=[out])
     assert not figs.exists()
+
+
+def test_hangup_ignored_under_nohup(inputs, long_logs, out):
+    # a run started with SIGHUP ignored (nohup, a detached job) keeps it ignored: the
+    # hang-up of a closed terminal does not stop it, and it writes its output
+    import signal
+    import subprocess
+
+    from .faultkit import command
+
+    target = out / "forces.csv"
+    proc = subprocess.Popen(command("simulate", inputs["cfg"], long_logs["csv"], "-o", target),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGHUP, signal.SIG_IGN))
+    run = _interrupt(proc, "SIGHUP", out)
+    assert run.code == 0, run.stderr
+    assert target.is_file() and not temporaries(out)
