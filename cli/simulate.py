@@ -87,8 +87,13 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     base = parse_baseline(baseline)
     if uncertainty is not None:
         from phri_spring.workflows.uncertainty import run_cli
-        return run_cli(config, log, output, arm, str(base), colmap, uncertainty, uncertainty_sd,
-                       seed, quiet, info)
+        bar = StderrProgress("simulate --uncertainty", progress_enabled(progress))
+        try:
+            return run_cli(config, log, output, arm, str(base), colmap, uncertainty,
+                           uncertainty_sd, seed, quiet, info,
+                           progress=bar if bar.enabled else None)
+        finally:
+            bar.close()
     pool = None
     if plot is not None:
         from phri_spring.io.config import LOG_GROUP_KEY, load_config

