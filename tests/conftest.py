@@ -176,3 +176,13 @@ def stderr_of(result) -> str:
         return result.stderr
     except ValueError:  # click < 8.2 mixes the streams unless asked
         return result.output
+
+
+def assert_one_line_error(result, *needles, code=1):
+    """A CliRunner result failed with ``code`` and one stderr line holding every needle."""
+    assert result.exit_code == code, result.output
+    err = stderr_of(result).strip()
+    assert err.count("\n") == 0, err
+    assert "Traceback" not in err
+    for n in needles:
+        assert n in err, err

@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 import yaml
 
-from conftest import run_phri as run, stderr_of
+from conftest import assert_one_line_error, run_phri as run, stderr_of
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "harmony_upper_arm.yaml"
@@ -48,15 +48,6 @@ def experiment(tmp_path):
     m = exp / "manifest.yaml"
     m.write_text(yaml.safe_dump({"baseline": "no_load", "trials": entries}, sort_keys=False))
     return m
-
-
-def assert_one_line_error(result, *needles, code=1):
-    assert result.exit_code == code, result.output
-    err = stderr_of(result).strip()
-    assert err.count("\n") == 0, err
-    assert "Traceback" not in err
-    for n in needles:
-        assert n in err, err
 
 
 def no_leftovers(folder: Path, name: str = "out"):

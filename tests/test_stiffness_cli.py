@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import yaml
 
-from conftest import run_phri as run, stderr_of
+from conftest import assert_one_line_error, run_phri as run, stderr_of
 from test_stiffness import CFG, fd_loadcell_map, rotation_xyz, spec_cuff_stiffness
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -25,15 +25,6 @@ def stdout_of(result) -> str:
         return result.stdout
     except ValueError:  # pragma: no cover - click < 8.2
         return result.output
-
-
-def assert_one_line_error(result, *needles, code=1):
-    assert result.exit_code == code, result.output
-    err = stderr_of(result).strip()
-    assert err.count("\n") == 0, err
-    assert "Traceback" not in err
-    for n in needles:
-        assert n in err, err
 
 
 @pytest.fixture
