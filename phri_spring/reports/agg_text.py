@@ -29,12 +29,14 @@ from __future__ import annotations
 import math
 import os
 import threading
+from typing import Optional
 
 import numpy as np
 from matplotlib import rcParams
 from matplotlib.backends.backend_agg import FigureCanvasAgg, RendererAgg
+from matplotlib.font_manager import FontProperties
 
-__all__ = ["AVAILABLE", "CachedTextCanvas"]
+__all__ = ["AVAILABLE", "CachedTextCanvas", "remember"]
 
 try:                                             # the steps RendererAgg.draw_text takes
     from matplotlib.backends.backend_agg import get_hinting_flag
@@ -65,10 +67,17 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_LAYOUTS.clear)
 
 
-def _bounded(cache: dict) -> dict:
-    if len(cache) >= _MAX_ENTRIES:
+def remember(cache: dict, key: tuple, value, limit: Optional[int] = None):
+    """Keep ``value`` under ``key`` in a cache emptied (not grown) when it holds ``limit``.
+
+    A :class:`~matplotlib.font_manager.FontProperties` in the key is stored as
+    a copy (it hashes by value, and the caller's may change later). ``limit``
+    defaults to ``_MAX_ENTRIES`` (read at each call). Returns ``value``.
+    """
+    if len(cache) >= (_MAX_ENTRIES if limit is None else limit):
         cache.clear()
-    return cache
+    cache[tuple(k.copy() if isinstance(k, FontProperties) else k for k in key)] = value
+    return value
 
 
 class _CachedTextRenderer(RendererAgg):
@@ -89,8 +98,7 @@ class _CachedTextRenderer(RendererAgg):
             font = self._prepare_font(prop)
             items = tuple((it.ft_object, it.glyph_index, it.x, it.y)
                           for it in font._layout(s, flags=flags, features=None, language=None))
-            # a copy of the properties in the key: the caller's may change later
-            _bounded(_LAYOUTS)[(prop.copy(),) + key[1:]] = items
+            remember(_LAYOUTS, key, items)
         cos = math.cos(math.radians(angle))
         sin = math.sin(math.radians(angle))
         matrix = (0x10000 * np.array([[cos, -sin], [sin, cos]])).round().astype(int)
@@ -102,7 +110,8 @@ class _CachedTextRenderer(RendererAgg):
         for ft, glyph, dx, dy in items:                # dy is upwards, as in matplotlib
             tx = round(0x40 * (x + dx * cos - dy * sin))
             ty = round(0x40 * (height - y + dx * sin + dy * cos))   # FreeType's y is upwards
-            gkey = (ft.fname, ft.face_index, size, self.dpi, flags, aa, mkey, glyph, tx & 63, ty & 63)
+            gkey = (ft.fname, ft.face_index, size, self.dpi, flags, aa, mkey, glyph,
+                    tx & 63, ty & 63)
             cached = _GLYPHS.get(gkey)
             if cached is None:
                 ft.set_size(size, self.dpi)
@@ -111,7 +120,7 @@ class _CachedTextRenderer(RendererAgg):
                 buffer = np.array(bitmap.buffer, copy=True)
                 if not aa:
                     buffer *= 0xff
-                cached = _bounded(_GLYPHS)[gkey] = (buffer, bitmap.left, bitmap.top)
+                cached = remember(_GLYPHS, gkey, (buffer, bitmap.left, bitmap.top))
             buffer, left, top = cached
             # draw_text_image's y is downwards and the bitmap's bottom side
             draw(buffer, left + (tx >> 6), int(height) - (top + (ty >> 6)) + buffer.shape[0],

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.text import Text
 
+from .agg_text import remember
 from .figure_base import ARM_NAMES, _ReusedFigure, _style, plain_savefig, write_png
 
 __all__ = ["heatmap_figure", "HeatmapRenderer"]
@@ -82,11 +83,7 @@ class _CellText(Text):
             return self._layouts[key]
         except (KeyError, TypeError):
             pass
-        layout = super()._get_layout(renderer)
-        if len(self._layouts) >= 20_000:
-            self._layouts.clear()
-        self._layouts[key[:2] + (self._fontproperties.copy(),) + key[3:]] = layout
-        return layout
+        return remember(self._layouts, key, super()._get_layout(renderer), limit=20_000)
 
 
 class HeatmapRenderer(_ReusedFigure):

@@ -110,13 +110,13 @@ class _ReusedFigure:
 
     def _text_size(self, text: str, prop, dpi: int) -> tuple:
         """Width and height [px] of a tick label, measured once per string, font and dpi."""
+        from .agg_text import remember
+
         key = (text, prop, dpi)
         size = self._sizes.get(key)
         if size is None:
-            if len(self._sizes) >= 10_000:
-                self._sizes.clear()
-            size = self._measure.get_text_width_height_descent(text, prop, ismath=False)[:2]
-            self._sizes[(text, prop.copy(), dpi)] = size
+            size = remember(self._sizes, key, self._measure.get_text_width_height_descent(
+                text, prop, ismath=False)[:2], limit=10_000)
         return size
 
     def _layout(self, dpi: int):
