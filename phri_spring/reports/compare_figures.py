@@ -25,7 +25,7 @@ from matplotlib.figure import Figure
 
 from .compare_heatmap import HeatmapRenderer, heatmap_figure
 from .figure_base import (ARM_COLORS, ARM_NAMES, DEFAULT_DPI, _ReusedFigure, _style,
-                          plain_savefig, write_png)
+                          fast_png, write_png)
 
 __all__ = ["ARM_COLORS", "ARM_NAMES", "rmse_bars_figure", "heatmap_figure", "wrench_figure",
            "condition_label", "save_figure", "DEFAULT_DPI", "HeatmapRenderer", "render_job",
@@ -236,7 +236,7 @@ def save_figure(fig: Figure, path, dpi: int = DEFAULT_DPI) -> Path:
     """
     path = Path(path)
     with _style():
-        if path.suffix.lower() != ".png" or not plain_savefig():
+        if not fast_png(path):
             fig.savefig(path, dpi=dpi)
             return path
         from .agg_text import CachedTextCanvas

@@ -17,7 +17,7 @@ from matplotlib.figure import Figure
 from matplotlib.text import Text
 
 from .agg_text import remember
-from .figure_base import ARM_NAMES, _ReusedFigure, _style, plain_savefig, write_png
+from .figure_base import ARM_NAMES, _ReusedFigure, _style, fast_png, write_png
 
 __all__ = ["heatmap_figure", "HeatmapRenderer"]
 
@@ -260,7 +260,7 @@ class HeatmapRenderer(_ReusedFigure):
         write_png(path, out, dpi)
 
     def _write(self, path: Path, dpi: int, key) -> None:
-        if path.suffix.lower() == ".png" and plain_savefig():
+        if fast_png(path):
             self._save_png(path, dpi, key)
         else:
             self.fig.savefig(path, dpi=dpi)

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "plain_savefig", "write_png"]
+__all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "fast_png", "write_png"]
 
 #: colour-blind-safe colours of the arm models (Okabe-Ito orange and blue)
 ARM_COLORS = {"rigid": "#E69F00", "compliant": "#0072B2", "coupled": "#009E73"}
@@ -147,7 +147,7 @@ class _ReusedFigure:
         return tuple(np.round([v for o, a in entry[0][0] for v in (*o.bounds, *a.bounds)], 9))
 
     def _write(self, path: Path, dpi: int, key) -> None:
-        if path.suffix.lower() == ".png" and plain_savefig():
+        if fast_png(path):
             self._canvas.draw()
             write_png(path, np.asarray(self._canvas.buffer_rgba()), dpi)
         else:
@@ -175,17 +175,19 @@ class _ReusedFigure:
         return path
 
 
-def plain_savefig() -> bool:
-    """True when ``savefig`` would write the canvas as drawn (the default ``savefig.*`` rcParams).
+def fast_png(path) -> bool:
+    """True when ``path`` is a PNG that ``savefig`` would write as the canvas draws it.
 
     The fast PNG paths (drawing once on the canvas and :func:`write_png`) are
-    taken only then; a user's ``matplotlibrc`` asking for a tight bounding box,
-    a transparent or another background goes through ``Figure.savefig``.
+    taken only then, with the default ``savefig.*`` rcParams; a user's
+    ``matplotlibrc`` asking for a tight bounding box, a transparent or another
+    background goes through ``Figure.savefig``, as do PDF and SVG.
     """
     import matplotlib
 
     rc = matplotlib.rcParams
-    return (rc["savefig.bbox"] in (None, "standard") and not rc["savefig.transparent"]
+    return (Path(path).suffix.lower() == ".png"
+            and rc["savefig.bbox"] in (None, "standard") and not rc["savefig.transparent"]
             and rc["savefig.facecolor"] == "auto" and rc["savefig.edgecolor"] == "auto")
 
 
