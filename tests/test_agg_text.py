@@ -41,7 +41,8 @@ def _text_figure(strings, dpi, seed=0, antialiased=True) -> Figure:
                 rotation=float(rng.choice([0.0, 90.0, 33.3, -12.0])),
                 ha=str(rng.choice(["left", "center", "right"])),
                 va=str(rng.choice(["baseline", "center", "top"])),
-                weight=str(rng.choice(["normal", "bold"])), color=str(rng.choice(["k", "w", "C1"])),
+                weight=str(rng.choice(["normal", "bold"])),
+                color=str(rng.choice(["k", "w", "C1"])),
                 antialiased=antialiased)
     return fig
 
@@ -58,7 +59,8 @@ def test_fast_path_is_on_with_this_matplotlib():
 @pytest.mark.parametrize("dpi", [40, 100, 170, 97.3])
 @pytest.mark.parametrize("antialiased", [True, False])
 def test_same_pixels_as_matplotlib(dpi, antialiased):
-    strings = ["-12.3", "0.0", "45.6", "RMSE 3.25 N", "zeroed load [N]", "A", "ÄÖü ß", "−7.5",
+    strings = ["-12.3", "0.0", "45.6", "RMSE 3.25 N", "zeroed load [N]", "A", "ÄÖü ß",
+               "−7.5",
                "two\nlines", "$x^2$", "  spaced  ", "N·m", "ﬁ", "日本"]
     fig = _text_figure(strings, dpi, antialiased=antialiased)
     agg_text._GLYPHS.clear()

@@ -63,7 +63,7 @@ def heatmap_figure(measured, simulated: dict, *, row_labels: Sequence[str], n_an
 
 
 class _CellText(Text):
-    """The value in a heat-map cell: a :class:`~matplotlib.text.Text` that lays out each string once.
+    """The value in a heat-map cell: a :class:`~matplotlib.text.Text` laying out a string once.
 
     A text's layout (its lines' sizes and offsets from the anchor) depends on
     the string, the font, the alignment and the resolution, not on where it

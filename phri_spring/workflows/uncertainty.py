@@ -37,10 +37,13 @@ from .common import cuff_wrench, model_from_config
 
 __all__ = ["UncertainInputs", "uncertain_inputs", "monte_carlo", "MonteCarloResult",
            "MonteCarloStream", "MonteCarloRun", "simulate_uncertainty_file",
-           "percentile_columns", "study_uncertainty", "PERCENTILES", "write_monte_carlo"]
+           "percentile_columns", "RATIO_COLUMNS", "study_uncertainty", "PERCENTILES",
+           "write_monte_carlo"]
 
 #: percentiles reported [%]
 PERCENTILES = (5.0, 50.0, 95.0)
+#: columns of the percentile table after the forces: peak pressure / pain threshold [-]
+RATIO_COLUMNS = tuple(f"peak_pressure_to_pain_threshold_p{q:g}" for q in PERCENTILES)
 #: (draws x samples x elements) values held at once
 _CHUNK_ENTRIES = 1 << 23
 
@@ -230,16 +233,19 @@ class MonteCarloStream:
         (see :meth:`block`), holding at most one block of samples.
         """
         times, wrenches, held, number = [], [], 0, 0
+        k = self.block_samples
         for t, w in chunks:
             times.append(np.asarray(t, dtype=float))
             wrenches.append(np.atleast_2d(np.asarray(w, dtype=float)))
             held += len(times[-1])
-            while held >= self.block_samples:
-                t_all, w_all = np.concatenate(times), np.concatenate(wrenches)
-                k = self.block_samples
-                yield (t_all[:k], *self.block(number, w_all[:k]))
-                number += 1
-                times, wrenches, held = [t_all[k:]], [w_all[k:]], held - k
+            if held < k:
+                continue
+            t_all, w_all = np.concatenate(times), np.concatenate(wrenches)   # once a chunk
+            start = 0
+            while held - start >= k:
+                yield (t_all[start:start + k], *self.block(number, w_all[start:start + k]))
+                number, start = number + 1, start + k
+            times, wrenches, held = [t_all[start:]], [w_all[start:]], held - start
         if held:
             yield (np.concatenate(times), *self.block(number, np.concatenate(wrenches)))
 
@@ -295,8 +301,7 @@ def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
     m, n = result.forces.shape[1:]
     data.update(zip(percentile_columns(result.labels),
                     result.forces.transpose(1, 2, 0).reshape(m, 3 * n).T))
-    for i, q in enumerate(PERCENTILES):
-        data[f"peak_pressure_to_pain_threshold_p{q:g}"] = result.pain_ratio[i]
+    data.update(zip(RATIO_COLUMNS, result.pain_ratio))
     df = pd.DataFrame(data)
     with atomic_file(output) as tmp:
         if fmt == "parquet":
@@ -527,7 +532,7 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
     colmap.update(columns or {})
     inputs = uncertain_inputs(cfg, **parse_sd(sd))
     mc = MonteCarloStream(cfg, draws=draws, seed=seed, arm=arm, inputs=inputs)
-    ratio = {f"peak_pressure_to_pain_threshold_p{q:g}": pa.float64() for q in PERCENTILES}
+    ratio = {name: pa.float64() for name in RATIO_COLUMNS}
     total = None
     if progress is not None:
         from ..io.config import LOG_GROUP_KEY
