@@ -89,11 +89,12 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         from phri_spring.workflows.uncertainty import run_cli
         bar = StderrProgress("simulate --uncertainty", progress_enabled(progress))
         try:
-            return run_cli(config, log, output, arm, str(base), colmap, uncertainty,
-                           uncertainty_sd, seed, quiet, info,
-                           progress=bar if bar.enabled else None)
+            run = run_cli(config, log, output, arm, str(base), colmap, uncertainty,
+                          uncertainty_sd, seed, progress=bar if bar.enabled else None)
         finally:
             bar.close()
+        info(run.summary_line(), quiet)
+        return
     pool = None
     if plot is not None:
         from phri_spring.io.config import LOG_GROUP_KEY, load_config

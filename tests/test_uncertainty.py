@@ -262,6 +262,9 @@ def test_simulate_uncertainty_streams_the_log(tmp_path, linear_case, fmt):
     run = simulate_uncertainty_file(cfg_path, log, tmp_path / f"mc.{fmt}", draws=120, seed=8,
                                     sd=sd)
     assert run.samples == 2300 and run.draws == 120 and run.not_converged == 0
+    line = run.summary_line()
+    assert "2,300 samples x 21 elements" in line and "120 Monte Carlo draws, seed 8" in line
+    assert "95th percentile of peak pressure up to" in line and "\n" not in line
     ref_res = monte_carlo(load_config(cfg_path), pd.read_parquet(log).to_numpy()[:, 1:]
                           if fmt == "parquet" else pd.read_csv(log).to_numpy()[:, 1:],
                           draws=120, seed=8, inputs=uncertain_inputs(load_config(cfg_path),

@@ -497,9 +497,21 @@ class MonteCarloRun:
     draws: int
     not_converged: int
     labels: tuple
+    seed: int = 0
     #: the largest 95th percentile of peak pressure / pain threshold [-] and its time [s]
     max_pain_ratio_p95: float = math.nan
     max_pain_ratio_time: float = math.nan
+
+    def summary_line(self) -> str:
+        """The line ``phri simulate --uncertainty`` ends with: sizes, draws, the peak."""
+        peak = (f"; 95th percentile of peak pressure up to {100 * self.max_pain_ratio_p95:.3g}%"
+                f" of the pain threshold (t = {self.max_pain_ratio_time:g} s)"
+                if math.isfinite(self.max_pain_ratio_p95) else "")
+        bad = (f"; {self.not_converged} draw-samples did not converge and were left out"
+               if self.not_converged else "")
+        return (f"wrote {self.output} ({self.samples:,} samples x {len(self.labels)} elements, "
+                f"5/50/95th percentiles over {self.draws} Monte Carlo draws, seed {self.seed}"
+                f"{bad}){peak}")
 
 
 def percentile_columns(labels) -> list:
@@ -556,26 +568,18 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
                 if progress is not None:
                     progress(samples, total)
     return MonteCarloRun(output, samples, mc.draws, mc.not_converged, tuple(cfg.labels),
-                         peak if samples and np.isfinite(peak) else math.nan, peak_time)
+                         mc.seed, peak if samples and np.isfinite(peak) else math.nan,
+                         peak_time)
 
 
-def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed, quiet, info,
-            progress=None) -> None:
+def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed,
+            progress=None) -> "MonteCarloRun":
     """The ``--uncertainty`` branch of ``phri simulate`` (absolute forces only)."""
     if baseline != "none":
         raise UsageError(f"--uncertainty gives percentiles of absolute forces; expected "
                          f"--baseline none, got {baseline}", key="--baseline")
-    res = simulate_uncertainty_file(config, log, output, draws=draws, seed=seed, arm=arm,
-                                    columns=columns, sd=sd, progress=progress)
-    if hasattr(progress, "close"):
-        progress.close()                  # the progress line ends before the summary line
-    peak = (f"; 95th percentile of peak pressure up to {100 * res.max_pain_ratio_p95:.3g}% "
-            f"of the pain threshold (t = {res.max_pain_ratio_time:g} s)"
-            if math.isfinite(res.max_pain_ratio_p95) else "")
-    info(f"wrote {output} ({res.samples:,} samples x {len(res.labels)} elements, "
-         f"5/50/95th percentiles over {res.draws} Monte Carlo draws, seed {seed}"
-         + (f"; {res.not_converged} draw-samples did not converge and were left out"
-            if res.not_converged else "") + ")" + peak, quiet)
+    return simulate_uncertainty_file(config, log, output, draws=draws, seed=seed, arm=arm,
+                                     columns=columns, sd=sd, progress=progress)
 
 
 # --------------------------------------------------------------------------- compare bands
