@@ -281,3 +281,32 @@ def test_simulate_uncertainty_streams_the_log(tmp_path, linear_case, fmt):
         assert run.max_pain_ratio_time == got["time"][ratio.idxmax()]
     else:
         np.testing.assert_allclose(got.to_numpy(), want.to_numpy(), rtol=0, atol=1.0001e-6)
+
+
+def test_simulate_uncertainty_bad_value_mid_log_leaves_nothing(tmp_path, monkeypatch):
+    # the log is streamed: a bad cell far into it (after blocks were already written to the
+    # temporary table) still ends in one line naming it, and nothing is left behind
+    from phri_spring.io import logs
+
+    written = []
+    write = logs.ForcesWriter.write
+    monkeypatch.setattr(logs.ForcesWriter, "write",
+                        lambda self, *a: (written.append(len(a[0])), write(self, *a))[1])
+    time, w = _long_log(60000, seed=2)
+    frame = pd.DataFrame(np.column_stack([time, w]),
+                         columns=["time", "Fx", "Fy", "Fz", "Mx", "My", "Mz"]).astype(object)
+    frame.iloc[59000, 3] = "n/a?"
+    log = tmp_path / "log.csv"
+    frame.to_csv(log, index=False)
+    out = tmp_path / "out"
+    out.mkdir()
+    res = CliRunner().invoke(phri, ["simulate", str(load_config_path()), str(log), "-o",
+                                    str(out / "mc.csv"), "--uncertainty", "40"])
+    assert res.exit_code == 1 and one_line(res.stderr), res.stderr
+    assert "Fz" in res.stderr and "line 59002" in res.stderr
+    assert written, "no block was written before the bad cell was read"
+    assert list(out.iterdir()) == []
+
+
+def load_config_path():
+    return Path(__file__).resolve().parent.parent / "configs" / "harmony_upper_arm.yaml"
