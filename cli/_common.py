@@ -34,6 +34,10 @@ class Interrupted(BaseException):
             return f"signal {self.signum}"
 
 
+#: signals received (their Interrupted may have been swallowed: see raise_if_interrupted)
+_received: list = []
+
+
 def _on_signal(signum, frame):
     # once only: the clean-up that follows (removing temporary files) must not be cut short
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
@@ -41,7 +45,26 @@ def _on_signal(signum, frame):
             signal.signal(sig, signal.SIG_IGN)
         except (OSError, ValueError):  # pragma: no cover
             pass
+    _received.append(signum)
     raise Interrupted(signum)
+
+
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` again if a signal arrived.
+
+    A signal handler's exception raised while Python runs a weakref callback or
+    a ``__del__`` (matplotlib's transforms have such callbacks) is printed as
+    "Exception ignored" and lost: the run would go on and write its outputs.
+    This check runs before any output lands and when the command returns.
+    """
+    if _received:
+        raise Interrupted(_received[0])
+
+
+def _unraisable(args) -> None:
+    if isinstance(args.exc_value, Interrupted):
+        return      # recorded in _received; raised again by raise_if_interrupted
+    sys.__unraisablehook__(args)
 
 
 def handle_signals() -> None:
@@ -52,10 +75,14 @@ def handle_signals() -> None:
     leaving a temporary file behind. A SIGHUP already ignored (``nohup``) stays
     ignored. Call from the main thread, before the command runs.
     """
+    from phri_spring.io.atomic import add_commit_check
+
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         if sig != signal.SIGINT and signal.getsignal(sig) == signal.SIG_IGN:
             continue
         signal.signal(sig, _on_signal)
+    sys.unraisablehook = _unraisable
+    add_commit_check(raise_if_interrupted)
     if hasattr(signal, "SIGXFSZ"):
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
@@ -88,6 +115,7 @@ class PhriGroup(click.Group):
                     warnings.simplefilter("ignore")
                 rv = super().main(args=args, prog_name=prog_name, complete_var=complete_var,
                                   standalone_mode=False, **extra)
+                raise_if_interrupted()     # a signal whose exception Python swallowed
         except click.exceptions.NoArgsIsHelpError as exc:  # pragma: no cover - click>=8.2
             click.echo(exc.ctx.get_help() if exc.ctx else str(exc), err=True)
             sys.exit(EXIT_USAGE)

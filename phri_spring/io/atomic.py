@@ -23,7 +23,28 @@ from pathlib import Path
 from ..errors import OutputError, UsageError
 
 __all__ = ["atomic_file", "atomic_directory", "check_output_path", "output_error", "naming",
-           "umask"]
+           "umask", "add_commit_check"]
+
+#: callables run just before any output lands (see :func:`add_commit_check`)
+_COMMIT_CHECKS: list = []
+
+
+def add_commit_check(check) -> None:
+    """Run ``check()`` just before any output of :func:`atomic_file` or :func:`atomic_directory`
+    lands; an exception it raises stops the output, which is then cleaned up like any failure.
+
+    The command line registers one that raises when a signal arrived whose
+    exception Python could not deliver (raised inside a weakref callback or a
+    ``__del__``, it is only reported as "ignored"): a run stopped by a signal
+    must never replace an output.
+    """
+    if check not in _COMMIT_CHECKS:
+        _COMMIT_CHECKS.append(check)
+
+
+def _before_commit() -> None:
+    for check in _COMMIT_CHECKS:
+        check()
 
 
 def umask() -> int:
@@ -198,6 +219,7 @@ def atomic_file(dest, suffix: str | None = None):
         finally:
             os.close(fd)
         yield tmp
+        _before_commit()
         os.replace(tmp, dest)
         tmp = None
     except OSError as exc:
@@ -235,6 +257,7 @@ def atomic_directory(dest):
         tmp = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", suffix=".tmp", dir=str(parent)))
         os.chmod(tmp, 0o777 & ~umask())
         yield tmp
+        _before_commit()
         if not dest.exists():
             os.replace(tmp, dest)
         else:

@@ -80,3 +80,62 @@ def test_hangup_ignored_under_nohup(inputs, long_logs, out):
     run = _interrupt(proc, "SIGHUP", out)
     assert run.code == 0, run.stderr
     assert target.is_file() and not temporaries(out)
+
+
+def test_a_commit_check_stops_every_output(tmp_path, monkeypatch):
+    # add_commit_check: what it raises stops the rename (file and folder), and the temporary
+    # output is removed as after any failure; the existing output stays as it was
+    from phri_spring.io import atomic
+
+    monkeypatch.setattr(atomic, "_COMMIT_CHECKS", [])
+    stop = RuntimeError("stop")
+    atomic.add_commit_check(lambda: (_ for _ in ()).throw(stop))
+    dest = tmp_path / "f.csv"
+    dest.write_text("earlier\n")
+    with pytest.raises(RuntimeError):
+        with atomic.atomic_file(dest) as tmp:
+            tmp.write_text("new\n")
+    folder = tmp_path / "d"
+    with pytest.raises(RuntimeError):
+        with atomic.atomic_directory(folder) as tmp:
+            (tmp / "x.txt").write_text("new\n")
+    assert dest.read_text() == "earlier\n" and not folder.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.csv"]
+
+
+def test_a_swallowed_interrupt_still_stops_the_run(inputs, out, monkeypatch, capsys):
+    # a signal arriving while Python runs a weakref callback (matplotlib's transforms have
+    # them): its Interrupted is only "ignored" by Python, yet the run must not replace an
+    # output; it ends as interrupted, in one line, status 128 + the signal
+    import gc
+    import signal as sig
+    import sys
+    import weakref
+
+    from conftest import run_phri, stderr_of
+    from phri_cli import _common
+    from phri_spring.io import atomic
+
+    monkeypatch.setattr(_common, "_received", [])
+    monkeypatch.setattr(atomic, "_COMMIT_CHECKS", [])
+    monkeypatch.setattr(sys, "unraisablehook", sys.unraisablehook)     # restored after
+    monkeypatch.setattr(sig, "signal", lambda *a: None)                  # pytest keeps its own
+    _common.handle_signals()
+
+    class Node:
+        pass
+
+    node = Node()
+    ref = weakref.ref(node, lambda _: _common._on_signal(sig.SIGTERM, None))   # noqa: F841
+    del node
+    gc.collect()                           # the callback runs; Python swallows its exception
+    assert "Exception ignored" not in capsys.readouterr().err
+
+    existing = out / "forces.csv"
+    existing.write_text("an earlier run\n")
+    before = snapshot(existing)
+    res = run_phri("simulate", inputs["cfg"], inputs["log_csv"], "-o", existing)
+    assert res.exit_code == 128 + sig.SIGTERM
+    err = stderr_of(res).strip()
+    assert "\n" not in err and "interrupted (SIGTERM)" in err, err
+    assert snapshot(existing) == before and not temporaries(out)
