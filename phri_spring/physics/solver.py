@@ -47,27 +47,25 @@ class Solution:
     forces : ndarray, shape (m, n)
         Normal force on the arm f_e [N] (NaN where not converged).
     contact : ndarray of bool, shape (m, n)
-        Element in contact (compression > 0, i.e. f_e > 0); computed on first
-        access (False where not converged).
+        The contact set the solver settled on: the elements or patches whose
+        contact indicator is positive at the solution (pressing), False where not
+        converged. For the spring model this is f_e > 0. For the coupled model with
+        an output map (the built-in FE's traction integral) it is the set of patches
+        whose normal force in the program is positive, which a reported force
+        clipped at 0 cannot tell (a pressing patch can report 0 N).
     iterations : ndarray of int, shape (m,)
         Linear solves the sample needed.
     converged : ndarray of bool, shape (m,)
     """
 
-    __slots__ = ("u", "forces", "iterations", "converged", "_contact")
+    __slots__ = ("u", "forces", "iterations", "converged", "contact")
 
-    def __init__(self, u, forces, iterations, converged, contact=None):
+    def __init__(self, u, forces, iterations, converged, contact):
         self.u = u
         self.forces = forces
         self.iterations = iterations
         self.converged = converged
-        self._contact = contact
-
-    @property
-    def contact(self) -> np.ndarray:
-        if self._contact is None:
-            self._contact = self.forces > 0
-        return self._contact
+        self.contact = contact
 
     def __repr__(self):
         return (f"Solution(samples={np.shape(self.forces)[0] if np.ndim(self.forces) > 1 else 1}, "
@@ -381,6 +379,7 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
             raise ValueError(f"out: expected a C-contiguous float64 array of shape ({m}, {n})")
     its = np.empty(m, dtype=np.int64)
     conv = np.empty(m, dtype=bool)
+    contact = np.empty((m, n), dtype=bool)
     block = max(256, _BLOCK_ENTRIES // max(n, 1))
     carry = None  # warm start across blocks: the last solved sample's contact set
     with np.errstate(over="ignore", invalid="ignore"):
@@ -398,7 +397,9 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
                 S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
                 ub, qb, _, itb, cb = iterate(system, rb, S0, max_iterations, q_out=qb)
             u[s:e], its[s:e], conv[s:e] = ub, itb, cb
-            carry = qb[-1] > 0
+            # the settled set, read off the indicator before it becomes the forces in place
+            np.greater(qb, 0.0, out=contact[s:e])
+            carry = contact[e - 1]
             system.forces(qb, out=qb, u=ub)
             # a displacement beyond _HUGE (or not finite) comes from an absurd input and is
             # not an answer: its forces and pressures overflow (one cheap test first)
@@ -409,9 +410,11 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
 
     if not conv.all():
         forces[~conv] = np.nan
+        contact[~conv] = False
     if single:
-        return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0])
-    return Solution(u=u, forces=forces, iterations=its, converged=conv)
+        return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
+                        contact=contact[0])
+    return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
 
 
 def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
@@ -434,9 +437,10 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     for i in range(m):
         ui, qi, _, it_i, ok = iterate(system, W[i:i + 1] + model.W_pre, full, max_iterations)
         u[i], q[i], its[i], conv[i] = ui[0], qi[0], it_i[0], ok[0]
+    contact = (q > 0) & conv[:, None]
     forces = system.forces(q, u=u)
     forces[~conv] = np.nan
-    return Solution(u=u, forces=forces, iterations=its, converged=conv)
+    return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
 
 
 class Solver:
@@ -485,17 +489,28 @@ class Solver:
         if not size <= _HUGE and not np.isfinite(size):
             raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
         if size <= _HUGE:
-            u, q, keys, its, conv = iterate(self._system, r[None], self._S, self.max_iterations,
+            u, q, _, its, conv = iterate(self._system, r[None], self._S, self.max_iterations,
                                             keys=self._keys)
             ok = bool(conv[0])
         else:  # absurd but finite input: the result may overflow, which is not an answer
             with np.errstate(over="ignore", invalid="ignore"):
-                u, q, keys, its, conv = iterate(self._system, r[None], self._S,
+                u, q, _, its, conv = iterate(self._system, r[None], self._S,
                                                 self.max_iterations, keys=self._keys)
                 ok = bool(conv[0]) and bool(np.abs(u).max() <= _HUGE)
         self.last_iterations, self.last_converged = int(its[0]), ok
-        self._S, self._keys, self._q = q > 0, keys, q
+        # the next call starts from the set read off this indicator; its key must be that
+        # set's own (the kernel's keys name the set it last solved with, which can differ
+        # from q > 0 at a contact on the boundary, and a key names a cached factorisation)
+        self._S, self._q = q > 0, q
+        self._keys = set_keys(self._S)
         return u[0]
+
+    @property
+    def last_contact(self) -> np.ndarray:
+        """The contact set (n,) bool the last call settled on (all False if it did not converge)."""
+        if self._q is None:
+            return np.zeros(self._system.n, dtype=bool)
+        return self._S[0] & self.last_converged
 
     def forces(self, wrench) -> np.ndarray:
         """Normal force of every element f_e (n,) [N] for one wrench W (6,) [N, N*m].

@@ -178,7 +178,7 @@ def evaluate_design(cfg: Config, loads: LoadSet, arm: str) -> dict:
     bad = ~np.asarray(sol.converged, dtype=bool)
     n_bad = int(w[bad].sum())
     inv_area_kpa = 1.0 / (1000.0 * model.areas)
-    contact = sol.forces > 0
+    contact = sol.contact  # the solver's set: a pressing coupled patch can report 0 N
     pressure = np.multiply(sol.forces, inv_area_kpa, out=sol.forces)  # (k, n) kPa, in place
     out = {"not_converged_samples": n_bad}
     if n_bad:
