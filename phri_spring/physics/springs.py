@@ -70,7 +70,31 @@ def element_stiffness(k_tissue, k_cuff, arm: str = "compliant") -> np.ndarray:
 
 
 def shear_ratio_from_poisson(nu: float) -> float:
-    """Default shear ratio eta = 1 / (2 (1 + nu)) [-]."""
+    """Default shear ratio eta = k_s,e / k_e = 1 / (2 (1 + nu)) [-] (the paper's model).
+
+    This is G / E of an isotropic tissue: the ratio of a free column of tissue (simple
+    shear against compression with its sides free), an assumption of the paper's model,
+    not the tangential-to-normal stiffness ratio of a bonded contact. That ratio lies
+    between two limits (docs/stiffness.md, "The shear ratio eta: an assumption"):
+
+    * thin bonded layer: shear G / h against confined compression
+      E (1 - nu) / ((1 + nu) (1 - 2 nu) h), eta = (1 - 2 nu) / (2 (1 - nu));
+    * rigid flat punch bonded to a half-space (Mindlin 1949): tangential 8 G a / (2 - nu)
+      against normal 4 G a / (1 - nu), eta = 2 (1 - nu) / (2 - nu).
+
+    At nu = 0.45 they are 0.091 and 0.710, the default 0.345. The default is kept so that
+    the paper's results are reproduced; ``interface.shear_ratio`` in a config overrides it.
+
+    Parameters
+    ----------
+    nu : float
+        Poisson ratio of the tissue [-].
+
+    Returns
+    -------
+    float
+        eta [-].
+    """
     return 1.0 / (2.0 * (1.0 + float(nu)))
 
 
