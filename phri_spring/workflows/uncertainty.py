@@ -1,39 +1,36 @@
 """Uncertainty of the predictions: Monte Carlo over what was measured with scatter, Sobol indices.
 
-Uncertain inputs (independent Gaussians):
-
-- the tissue stiffness of every location: mean = the config's value, SD from
-  the ``std_N_per_m`` column of the ``phri fit-stiffness`` CSV the config's
-  ``tissue.stiffness`` names (``from_csv``), or a relative SD of the config's
-  values (e.g. 0.06 for the paper's 6 % scatter of the indenter stiffness);
-- the strap tension: mean = ``strap.tension``, SD in N (set by hand);
-- load-cell noise: white Gaussian noise added to every sample and channel of
-  the log, SD in N (forces) and N*m (moments), in the log's units.
+The uncertain inputs (tissue stiffness, strap tension, load-cell noise), their
+draws and what each arm takes from them (the coupled arm: the continuum's
+Young's modulus; the rigid arm: no tissue) are in :mod:`.uncertain_draws`.
 
 :func:`monte_carlo` draws N sets of inputs (fixed seed), solves the whole log
 for each, and returns the 5th, 50th and 95th percentiles over the draws of
 every element's force and of the per-sample peak pressure / pain threshold.
 :func:`study_uncertainty` does the same for a design study's objectives at
 its best design, and, with SALib, the first-order and total Sobol indices of
-each objective to each scalar input (per-location tissue stiffness, strap
-tension): which measurement is worth repeating. Load-cell noise is random per
-sample, not one scalar, so it is in the Monte Carlo but not in the indices.
+each objective to each scalar input the arm uses (per-location tissue
+stiffness or the continuum's modulus, strap tension): which measurement is
+worth repeating. Load-cell noise is random per sample, not one scalar, so it is
+in the Monte Carlo but not in the indices. Every output names what scattered.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Optional, Union
+from typing import Optional
 
 import numpy as np
 
-from ..errors import DataError, UsageError
+from ..errors import UsageError
 from ..io.config import Config
 from ..physics.solver import solve
 from .common import cuff_wrench, model_from_config
+from .uncertain_draws import (UncertainInputs, check_fe_cache, config_at, draw_configs,
+                              parse_sd, perturbed_text, reaches_model, sobol_inputs,
+                              uncertain_inputs)
 
 __all__ = ["UncertainInputs", "uncertain_inputs", "monte_carlo", "MonteCarloResult",
            "MonteCarloStream", "MonteCarloRun", "simulate_uncertainty_file",
@@ -46,95 +43,6 @@ PERCENTILES = (5.0, 50.0, 95.0)
 RATIO_COLUMNS = tuple(f"peak_pressure_to_pain_threshold_p{q:g}" for q in PERCENTILES)
 #: (draws x samples x elements) values held at once
 _CHUNK_ENTRIES = 1 << 23
-
-
-@dataclass(frozen=True)
-class UncertainInputs:
-    """SDs of the uncertain inputs of one config.
-
-    Attributes
-    ----------
-    tissue_sd : ndarray, shape (n,)
-        SD of each location's tissue stiffness [N/m], in the config's basis.
-    tension_sd_N : float
-    force_sd_N : float
-        Load-cell force noise SD [log force unit].
-    moment_sd_Nm : float
-        Load-cell moment noise SD [log moment unit].
-    """
-
-    tissue_sd: np.ndarray
-    tension_sd_N: float = 0.0
-    force_sd_N: float = 0.0
-    moment_sd_Nm: float = 0.0
-
-    @property
-    def noise_sd(self) -> np.ndarray:
-        return np.array([self.force_sd_N] * 3 + [self.moment_sd_Nm] * 3)
-
-
-def _csv_std(cfg: Config, csv_path=None) -> Optional[np.ndarray]:
-    import pandas as pd
-
-    if csv_path is not None:
-        path = Path(csv_path)
-    else:
-        raw = cfg.raw.get("tissue", {}).get("stiffness") if isinstance(cfg.raw, dict) else None
-        if not isinstance(raw, str):
-            return None
-        base = cfg.path.parent if cfg.path is not None else Path(".")
-        path = Path(raw) if Path(raw).is_absolute() else base / raw
-    df = pd.read_csv(path, comment="#")
-    if "std_N_per_m" not in df.columns:
-        raise DataError("missing column 'std_N_per_m'; expected a CSV written by 'phri "
-                        "fit-stiffness' (or give the SD as a fraction)", file=path,
-                        key="std_N_per_m")
-    sd = pd.to_numeric(df["std_N_per_m"], errors="coerce").astype(float)
-    sd = dict(zip(df["location"].astype(str).str.strip(), sd))
-    out = np.array([sd.get(lab, np.nan) for lab in cfg.labels], dtype=float)
-    bad = ~np.isfinite(out) | (out < 0)
-    return np.where(bad, 0.0, out)   # one trial only: no SD written, no scatter assumed
-
-
-def uncertain_inputs(cfg: Config, *, tissue_sd: Union[str, float] = "from_csv",
-                     tension_sd_N: float = 0.0, force_sd_N: float = 0.0,
-                     moment_sd_Nm: float = 0.0, tissue_csv=None) -> UncertainInputs:
-    """The SDs of a config's uncertain inputs.
-
-    Parameters
-    ----------
-    tissue_sd : 'from_csv' or float
-        ``from_csv``: the ``std_N_per_m`` column of the config's stiffness CSV
-        (zero when the config gives numbers, or a location has no SD); a float:
-        that fraction of each location's stiffness.
-    """
-    for name, v in (("strap tension SD", tension_sd_N), ("load-cell force SD", force_sd_N),
-                    ("load-cell moment SD", moment_sd_Nm)):
-        if not (math.isfinite(v) and v >= 0):
-            raise UsageError(f"expected a finite value >= 0, got {v!r}", key=name)
-    if isinstance(tissue_sd, str):
-        sd = _csv_std(cfg, tissue_csv)
-        sd = np.zeros(cfg.n_elements) if sd is None else sd
-    else:
-        if not (math.isfinite(tissue_sd) and tissue_sd >= 0):
-            raise UsageError(f"expected a relative SD >= 0, got {tissue_sd!r}",
-                             key="tissue stiffness SD")
-        sd = float(tissue_sd) * np.asarray(cfg.tissue_stiffness, dtype=float)
-    return UncertainInputs(sd, float(tension_sd_N), float(force_sd_N), float(moment_sd_Nm))
-
-
-def _draw_configs(cfg: Config, inputs: UncertainInputs, draws: int, seed: int) -> list:
-    rng = np.random.default_rng([int(seed), 0])
-    k = cfg.tissue_stiffness + inputs.tissue_sd * rng.standard_normal((draws, cfg.n_elements))
-    t = cfg.strap_tension + inputs.tension_sd_N * rng.standard_normal(draws)
-    if np.any(k <= 0):
-        raise DataError("a Monte Carlo draw gave a tissue stiffness <= 0; expected SDs well "
-                        "below the stiffness (the inputs are Gaussian)", key="tissue.stiffness")
-    if np.any(t < 0):
-        raise DataError("a Monte Carlo draw gave a strap tension < 0; expected an SD well below "
-                        "the tension", key="strap.tension")
-    return [dataclasses.replace(cfg, tissue_stiffness=k[d], strap_tension=float(t[d]))
-            for d in range(draws)]
 
 
 @dataclass
@@ -151,6 +59,8 @@ class MonteCarloResult:
     not_converged : int
         (draw, sample) pairs the solver did not converge on (left out).
     labels : tuple
+    perturbed : str
+        The inputs that scattered for the arm (``none``: the percentiles coincide).
     """
 
     forces: np.ndarray
@@ -158,6 +68,7 @@ class MonteCarloResult:
     draws: int
     not_converged: int
     labels: tuple
+    perturbed: str = ""
 
 
 class MonteCarloStream:
@@ -183,6 +94,8 @@ class MonteCarloStream:
     ----------
     block_samples : int
         Samples per block.
+    perturbed : str
+        The inputs that scatter for this arm (``none`` when none does).
     not_converged : int
         (draw, sample) pairs the solver did not converge on so far (left out).
     """
@@ -193,10 +106,14 @@ class MonteCarloStream:
             raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
         self.cfg, self.draws, self.seed = cfg, int(draws), int(seed)
         inputs = uncertain_inputs(cfg) if inputs is None else inputs
-        cfgs = _draw_configs(cfg, inputs, self.draws, self.seed)
-        same_model = not (inputs.tissue_sd.any() or inputs.tension_sd_N > 0)
-        self.models = [model_from_config(cfgs[0], arm)] * self.draws if same_model else \
-            [model_from_config(c, arm) for c in cfgs]
+        cfgs = draw_configs(cfg, inputs, self.draws, self.seed)
+        #: what scattered for this arm (:func:`.uncertain_draws.perturbed_text`)
+        self.perturbed = perturbed_text(cfg, inputs, arm)
+        if reaches_model(cfg, inputs, arm):
+            check_fe_cache(cfg, inputs, [arm])
+            self.models = [model_from_config(c, arm) for c in cfgs]
+        else:   # nothing this arm uses scatters: every draw's model is the config's own
+            self.models = [model_from_config(cfg, arm)] * self.draws
         self.noise_sd = inputs.noise_sd
         self.block_samples = max(1, _CHUNK_ENTRIES // (self.draws * cfg.n_elements))
         self.not_converged = 0
@@ -281,7 +198,8 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
     for c, s in enumerate(range(0, m, mc.block_samples)):
         e = min(m, s + mc.block_samples)
         out_f[:, s:e], out_r[:, s:e] = mc.block(c, w[s:e])
-    return MonteCarloResult(out_f, out_r, mc.draws, mc.not_converged, tuple(cfg.labels))
+    return MonteCarloResult(out_f, out_r, mc.draws, mc.not_converged, tuple(cfg.labels),
+                            mc.perturbed)
 
 
 def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
@@ -312,7 +230,9 @@ def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
 
 
 # --------------------------------------------------------------------------- studies
-def _objectives_at(cfg, loads, arm, objectives) -> np.ndarray:
+def _objectives_at(cfg, loads, arm, objectives) -> tuple[np.ndarray, np.ndarray]:
+    """(objective values (k,) in the order of ``objectives``, each element's peak pressure
+    over the load set (n,) [kPa]) of one design."""
     from .design import evaluate_design
 
     r = evaluate_design(cfg, loads, arm)
@@ -345,7 +265,9 @@ def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
                               tension_sd_N=spec.strap_tension_sd_N,
                               force_sd_N=spec.loadcell_force_sd_N,
                               moment_sd_Nm=spec.loadcell_moment_sd_Nm)
-    cfgs = _draw_configs(cfg, inputs, spec.draws, spec.seed)
+    cfgs = draw_configs(cfg, inputs, spec.draws, spec.seed)
+    check_fe_cache(cfg, inputs, [arm])
+    perturbed = perturbed_text(cfg, inputs, arm)
     noisy = bool(inputs.noise_sd.any())
     if noisy:   # noise is per sample: expand the merged rows back to every sample
         full = np.repeat(loads.wrench_lc, loads.weights.astype(np.int64), axis=0)
@@ -364,20 +286,23 @@ def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
     q = np.array(PERCENTILES)
     obj = pd.DataFrame({"objective": list(objectives),
                         **{f"p{x:g}": np.nanpercentile(V, x, axis=0) for x in q},
-                        "mean": np.nanmean(V, axis=0), "sd": np.nanstd(V, axis=0, ddof=1)})
+                        "mean": np.nanmean(V, axis=0), "sd": np.nanstd(V, axis=0, ddof=1),
+                        "draws_converged": np.isfinite(V).sum(axis=0),
+                        "perturbed": perturbed})
     pat = pd.DataFrame({"location": list(cfg.labels),
                         **{f"peak_pressure_kPa_p{x:g}": np.nanpercentile(P, x, axis=0)
                            for x in q}})
     tables = {"uncertainty_objectives.csv": obj, "uncertainty_patches.csv": pat}
     md = ["## Uncertainty of the best design", "",
-          f"Monte Carlo, {spec.draws} draws (seed {spec.seed}): tissue stiffness SD "
-          f"{'from the fit-stiffness CSV' if spec.tissue_stiffness_sd == 'from_csv' else str(spec.tissue_stiffness_sd) + ' of the value'}, "
-          f"strap tension SD {spec.strap_tension_sd_N:g} N, load-cell noise SD "
-          f"{spec.loadcell_force_sd_N:g} N / {spec.loadcell_moment_sd_Nm:g} N*m "
-          "(uncertainty_objectives.csv, uncertainty_patches.csv).", "",
+          f"Monte Carlo, {spec.draws} draws (seed {spec.seed}), {arm} arm "
+          "(uncertainty_objectives.csv, uncertainty_patches.csv). Perturbed for this arm: "
+          f"{perturbed}.", "",
           "| objective | p5 | p50 | p95 |", "|---|---|---|---|"]
     for _, r in obj.iterrows():
         md.append(f"| {r['objective']} | {r['p5']:.4g} | {r['p50']:.4g} | {r['p95']:.4g} |")
+    lost = spec.draws - obj["draws_converged"].min()
+    if lost:
+        md += ["", f"{lost} of {spec.draws} draws did not converge and are left out."]
     if spec.sobol:
         sob = sobol_indices(cfg, loads, arm, inputs, objectives, spec.sobol, spec.seed)
         if sob is not None:
@@ -386,12 +311,19 @@ def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
                    f"{spec.sobol} base samples; sobol.csv): the inputs with the largest total "
                    "index ST are the measurements most worth repeating.", "",
                    "| objective | input | S1 | ST |", "|---|---|---|---|"]
+            notes = []
             for o in objectives:
-                top = sob[sob["objective"] == o].sort_values("ST", ascending=False).head(3)
-                for _, r in top.iterrows():
+                mine = sob[sob["objective"] == o]
+                if mine["note"].iloc[0]:     # unavailable: never printed as a measured 0
+                    md.append(f"| {o} | (all) | unavailable | unavailable |")
+                    notes.append(f"- {o}: {mine['note'].iloc[0]}.")
+                    continue
+                for _, r in mine.sort_values("ST", ascending=False).head(3).iterrows():
                     md.append(f"| {o} | {r['input']} | {r['S1']:.3f} | {r['ST']:.3f} |")
+            if notes:
+                md += ["", *notes]
         else:
-            md += ["", "(No Sobol indices: no input has a non-zero SD.)"]
+            md += ["", f"(No Sobol indices: no input the {arm} arm uses has a non-zero SD.)"]
     return {"tables": tables, "markdown": "\n".join(md)}
 
 
@@ -399,14 +331,17 @@ def sobol_indices(cfg: Config, loads, arm: str, inputs: UncertainInputs, objecti
                   n_base: int, seed: int = 0):
     """First-order and total Sobol indices of each objective to each scalar input (SALib).
 
-    Inputs: the tissue stiffness of every location with a non-zero SD, and the
-    strap tension if its SD is non-zero, each Gaussian. Costs n_base * (D + 2)
-    evaluations over the load set (D inputs).
+    Inputs: those the arm uses with a non-zero SD (:func:`.uncertain_draws.sobol_inputs`:
+    each location's tissue stiffness, or the continuum's Young's modulus, and the
+    strap tension), each Gaussian. Costs n_base * (D + 2) evaluations over the
+    load set (D inputs).
 
     Returns
     -------
     pandas.DataFrame or None
-        objective, input, S1, S1_conf, ST, ST_conf; None when no input has an SD.
+        objective, input, S1, S1_conf, ST, ST_conf, note; None when no input has an
+        SD. An objective some evaluation gave no value for (not converged), or that
+        never varies, has NaN indices and its reason in ``note`` (empty otherwise).
     """
     import pandas as pd
 
@@ -416,76 +351,35 @@ def sobol_indices(cfg: Config, loads, arm: str, inputs: UncertainInputs, objecti
     except ImportError:
         raise UsageError("Sobol indices need SALib: pip install -e .[sensitivity]",
                          key="uncertainty.sobol") from None
-    names, bounds, which = [], [], []
-    for j, lab in enumerate(cfg.labels):
-        if inputs.tissue_sd[j] > 0:
-            names.append(f"tissue.stiffness[{lab}]")
-            bounds.append([float(cfg.tissue_stiffness[j]), float(inputs.tissue_sd[j])])
-            which.append(("k", j))
-    if inputs.tension_sd_N > 0:
-        names.append("strap.tension")
-        bounds.append([cfg.strap_tension, inputs.tension_sd_N])
-        which.append(("t", 0))
-    if not names:
+    scalars = sobol_inputs(cfg, inputs, arm)
+    if not scalars:
         return None
-    problem = {"num_vars": len(names), "names": names, "bounds": bounds,
+    names = [nm for nm, *_ in scalars]
+    which = [w for *_, w in scalars]
+    problem = {"num_vars": len(names), "names": names,
+               "bounds": [[mean, sd] for _, mean, sd, _ in scalars],
                "dists": ["norm"] * len(names)}
     X = sobol_sample.sample(problem, int(n_base), calc_second_order=False, seed=int(seed))
     Y = np.empty((len(X), len(objectives)))
     for i, x in enumerate(X):
-        k = np.array(cfg.tissue_stiffness, dtype=float)
-        t = cfg.strap_tension
-        for (kind, j), v in zip(which, x):
-            if kind == "k":
-                k[j] = max(v, 1e-9 * k[j])
-            else:
-                t = max(v, 0.0)
-        c = dataclasses.replace(cfg, tissue_stiffness=k, strap_tension=float(t))
-        Y[i] = _objectives_at(c, loads, arm, objectives)[0]
+        Y[i] = _objectives_at(config_at(cfg, which, x), loads, arm, objectives)[0]
     rows = []
     for j, o in enumerate(objectives):
         y = Y[:, j]
-        if not np.all(np.isfinite(y)) or np.ptp(y) == 0:
-            for nm in names:
-                rows.append({"objective": o, "input": nm, "S1": 0.0, "S1_conf": 0.0,
-                             "ST": 0.0, "ST_conf": 0.0})
+        bad = int(np.count_nonzero(~np.isfinite(y)))
+        note = (f"unavailable: {bad} of {len(y)} evaluations did not converge" if bad else
+                f"unavailable: the objective is the same in all {len(y)} evaluations (no "
+                "variance to apportion)" if np.ptp(y) == 0 else "")
+        if note:
+            rows += [{"objective": o, "input": nm, "S1": math.nan, "S1_conf": math.nan,
+                      "ST": math.nan, "ST_conf": math.nan, "note": note} for nm in names]
             continue
         res = sobol_analyze.analyze(problem, y, calc_second_order=False, seed=int(seed))
         for i, nm in enumerate(names):
             rows.append({"objective": o, "input": nm, "S1": float(res["S1"][i]),
                          "S1_conf": float(res["S1_conf"][i]), "ST": float(res["ST"][i]),
-                         "ST_conf": float(res["ST_conf"][i])})
+                         "ST_conf": float(res["ST_conf"][i]), "note": ""})
     return pd.DataFrame(rows)
-
-
-def parse_sd(text: Optional[str]) -> dict:
-    """Parse ``tissue=from_csv,tension=0.1,force=0.3,moment=0.01`` (any subset).
-
-    ``tissue`` is ``from_csv`` or a fraction of the stiffness; ``tension`` [N],
-    ``force`` [log force unit] and ``moment`` [log moment unit] are SDs.
-    """
-    out = {"tissue_sd": "from_csv", "tension_sd_N": 0.0, "force_sd_N": 0.0, "moment_sd_Nm": 0.0}
-    names = {"tissue": "tissue_sd", "tension": "tension_sd_N", "force": "force_sd_N",
-             "moment": "moment_sd_Nm"}
-    if not text:
-        return out
-    for item in str(text).split(","):
-        key, sep, val = item.partition("=")
-        key = key.strip()
-        if not sep or key not in names:
-            raise UsageError(f"expected NAME=SD items with NAME among {', '.join(names)}, "
-                             f"got {item.strip()!r}", key="--uncertainty-sd")
-        if key == "tissue" and val.strip() == "from_csv":
-            continue
-        try:
-            v = float(val)
-        except ValueError:
-            v = math.nan
-        if not (math.isfinite(v) and v >= 0):
-            raise UsageError(f"{key}: expected a number >= 0, got {val.strip()!r}",
-                             key="--uncertainty-sd")
-        out[names[key]] = v
-    return out
 
 
 @dataclass(frozen=True)
@@ -501,6 +395,8 @@ class MonteCarloRun:
     #: the largest 95th percentile of peak pressure / pain threshold [-] and its time [s]
     max_pain_ratio_p95: float = math.nan
     max_pain_ratio_time: float = math.nan
+    #: the inputs that scattered for the arm that ran
+    perturbed: str = ""
 
     def summary_line(self) -> str:
         """The line ``phri simulate --uncertainty`` ends with: sizes, draws, the peak."""
@@ -511,7 +407,7 @@ class MonteCarloRun:
                if self.not_converged else "")
         return (f"wrote {self.output} ({self.samples:,} samples x {len(self.labels)} elements, "
                 f"5/50/95th percentiles over {self.draws} Monte Carlo draws, seed {self.seed}"
-                f"{bad}){peak}")
+                f"{bad}; perturbed: {self.perturbed or 'none'}){peak}")
 
 
 def percentile_columns(labels) -> list:
@@ -569,7 +465,7 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
                     progress(samples, total)
     return MonteCarloRun(output, samples, mc.draws, mc.not_converged, tuple(cfg.labels),
                          mc.seed, peak if samples and np.isfinite(peak) else math.nan,
-                         peak_time)
+                         peak_time, mc.perturbed)
 
 
 def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed,
@@ -586,11 +482,13 @@ def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed,
 def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None):
     """Monte Carlo bands of a ``phri compare`` result's simulated (zeroed) loads.
 
-    For every arm model, the config's uncertain inputs (tissue stiffness, strap
-    tension; see :func:`parse_sd`) are drawn ``draws`` times and every trial's
-    condition-mean wrenches solved again; each draw's loads are zeroed on its own
-    baseline condition, as :func:`phri_spring.workflows.compare.compare` does.
-    Load-cell noise is left out: the wrenches are means over a steady window.
+    The config's uncertain inputs (tissue stiffness, strap tension; see
+    :func:`parse_sd`) are drawn ``draws`` times, the same draws for every arm, each
+    arm taking what its model uses (:mod:`.uncertain_draws`: the coupled arm the
+    continuum's modulus, the rigid arm no tissue), and every trial's condition-mean
+    wrenches solved again; each draw's loads are zeroed on its own baseline
+    condition, as :func:`phri_spring.workflows.compare.compare` does. Load-cell
+    noise is left out: the wrenches are means over a steady window.
 
     Parameters
     ----------
@@ -605,7 +503,8 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
         (trial index, arm) -> ndarray (3, c, n) of the 5/50/95th percentiles [N].
     table : pandas.DataFrame
         experiment, direction, trial, condition, arm, location, measured_N,
-        simulated_N, sim_p5_N, sim_p50_N, sim_p95_N.
+        simulated_N, sim_p5_N, sim_p50_N, sim_p95_N, perturbed (what scattered for
+        the row's arm; ``none``: the band is the prediction itself).
     """
     import pandas as pd
 
@@ -615,15 +514,21 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
     kw = parse_sd(sd)
     kw["force_sd_N"] = kw["moment_sd_Nm"] = 0.0
     inputs = uncertain_inputs(cfg, tissue_csv=result.tissue_stiffness_file, **kw)
-    cfgs = _draw_configs(cfg, inputs, int(draws), seed)
+    cfgs = draw_configs(cfg, inputs, int(draws), seed)
+    check_fe_cache(cfg, inputs, result.arms)
     W = np.vstack([tc.cuff_wrench for tc in result.trials])
     bounds = np.cumsum([0] + [len(tc.conditions) for tc in result.trials])
     bands, rows = {}, []
     q = np.array(PERCENTILES)
     for arm in result.arms:
+        perturbed = perturbed_text(cfg, inputs, arm, noise=False)
         F = np.empty((len(cfgs), len(W), cfg.n_elements))
-        for d, c in enumerate(cfgs):
-            F[d] = solve(model_from_config(c, arm), W, max_iterations=cfg.max_iterations).forces
+        if reaches_model(cfg, inputs, arm):
+            for d, c in enumerate(cfgs):
+                F[d] = solve(model_from_config(c, arm), W,
+                             max_iterations=cfg.max_iterations).forces
+        else:       # nothing this arm uses scatters: every draw is the config itself
+            F[:] = solve(model_from_config(cfg, arm), W, max_iterations=cfg.max_iterations).forces
         for t, tc in enumerate(result.trials):
             Ft = F[:, bounds[t]:bounds[t + 1]]
             Z = Ft - Ft[:, tc.baseline_index][:, None, :]
@@ -638,7 +543,7 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
                                  "measured_N": tc.measured[i, j],
                                  "simulated_N": tc.simulated[arm][i, j],
                                  "sim_p5_N": P[0, i, j], "sim_p50_N": P[1, i, j],
-                                 "sim_p95_N": P[2, i, j]})
+                                 "sim_p95_N": P[2, i, j], "perturbed": perturbed})
     return bands, pd.DataFrame(rows)
 
 

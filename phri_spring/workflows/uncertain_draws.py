@@ -1,0 +1,318 @@
+"""The uncertain inputs of a config, their Monte Carlo draws, and what scatters for each arm.
+
+Uncertain inputs (independent Gaussians):
+
+- the tissue stiffness of every location: mean = the config's value, SD from
+  the ``std_N_per_m`` column of the ``phri fit-stiffness`` CSV the config's
+  ``tissue.stiffness`` names (``from_csv``), or a relative SD of the config's
+  values (e.g. 0.06 for the paper's 6 % scatter of the indenter stiffness);
+- the strap tension: mean = ``strap.tension``, SD in N (set by hand);
+- load-cell noise: white Gaussian noise added to every sample and channel of
+  the log, SD in N (forces) and N*m (moments), in the log's units.
+
+Each arm takes from the tissue scatter what its model uses (:func:`tissue_route`):
+
+- ``compliant``: every location's tissue stiffness (its tissue spring);
+- ``rigid``: nothing (cuff springs only): its spread comes from the strap
+  tension and the load-cell noise alone, and is exactly 0 without them;
+- ``coupled`` with ``tissue.continuum.young_modulus``: that one modulus E, drawn
+  as one value with the tissue's relative SD (a number: that fraction; ``from_csv``:
+  the root mean square of the CSV's SD / stiffness over the locations). The
+  condensed FE stiffness is linear in E, so a draw reloads the cached E = 1 matrices
+  (``io/surface_stiffness.py``) and scales them: the FE is built once;
+- ``coupled`` with E converted from the indenter map: the per-location stiffness
+  draws, through E (proportional to the indenter stiffness): their mean (``spread:
+  mean``) or each patch's own (``spread: per_patch``);
+- ``coupled`` with a user's ``surface_stiffness`` export: nothing (the export has
+  no modulus to scatter), unless ``spread: per_patch`` with E from the indenter map.
+
+The layer's thickness does not scatter: the FE matrices depend on it, so every
+draw would rebuild the FE (10-20 s each).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional, Union
+
+import numpy as np
+
+from ..errors import DataError, UsageError
+from ..io.config import Config
+
+__all__ = ["UncertainInputs", "uncertain_inputs", "parse_sd", "draw_configs", "tissue_route",
+           "modulus_sd", "perturbed_inputs", "perturbed_text", "reaches_model",
+           "sobol_inputs", "config_at", "check_fe_cache"]
+
+
+@dataclass(frozen=True)
+class UncertainInputs:
+    """SDs of the uncertain inputs of one config.
+
+    Attributes
+    ----------
+    tissue_sd : ndarray, shape (n,)
+        SD of each location's tissue stiffness [N/m], in the config's basis.
+    tension_sd_N : float
+    force_sd_N : float
+        Load-cell force noise SD [log force unit].
+    moment_sd_Nm : float
+        Load-cell moment noise SD [log moment unit].
+    """
+
+    tissue_sd: np.ndarray
+    tension_sd_N: float = 0.0
+    force_sd_N: float = 0.0
+    moment_sd_Nm: float = 0.0
+
+    @property
+    def noise_sd(self) -> np.ndarray:
+        return np.array([self.force_sd_N] * 3 + [self.moment_sd_Nm] * 3)
+
+
+def _csv_std(cfg: Config, csv_path=None) -> Optional[np.ndarray]:
+    import pandas as pd
+
+    if csv_path is not None:
+        path = Path(csv_path)
+    else:
+        raw = cfg.raw.get("tissue", {}).get("stiffness") if isinstance(cfg.raw, dict) else None
+        if not isinstance(raw, str):
+            return None
+        base = cfg.path.parent if cfg.path is not None else Path(".")
+        path = Path(raw) if Path(raw).is_absolute() else base / raw
+    df = pd.read_csv(path, comment="#")
+    if "std_N_per_m" not in df.columns:
+        raise DataError("missing column 'std_N_per_m'; expected a CSV written by 'phri "
+                        "fit-stiffness' (or give the SD as a fraction)", file=path,
+                        key="std_N_per_m")
+    sd = pd.to_numeric(df["std_N_per_m"], errors="coerce").astype(float)
+    sd = dict(zip(df["location"].astype(str).str.strip(), sd))
+    out = np.array([sd.get(lab, np.nan) for lab in cfg.labels], dtype=float)
+    bad = ~np.isfinite(out) | (out < 0)
+    return np.where(bad, 0.0, out)   # one trial only: no SD written, no scatter assumed
+
+
+def uncertain_inputs(cfg: Config, *, tissue_sd: Union[str, float] = "from_csv",
+                     tension_sd_N: float = 0.0, force_sd_N: float = 0.0,
+                     moment_sd_Nm: float = 0.0, tissue_csv=None) -> UncertainInputs:
+    """The SDs of a config's uncertain inputs.
+
+    Parameters
+    ----------
+    tissue_sd : 'from_csv' or float
+        ``from_csv``: the ``std_N_per_m`` column of the config's stiffness CSV
+        (zero when the config gives numbers, or a location has no SD); a float:
+        that fraction of each location's stiffness.
+    """
+    for name, v in (("strap tension SD", tension_sd_N), ("load-cell force SD", force_sd_N),
+                    ("load-cell moment SD", moment_sd_Nm)):
+        if not (math.isfinite(v) and v >= 0):
+            raise UsageError(f"expected a finite value >= 0, got {v!r}", key=name)
+    if isinstance(tissue_sd, str):
+        sd = _csv_std(cfg, tissue_csv)
+        sd = np.zeros(cfg.n_elements) if sd is None else sd
+    else:
+        if not (math.isfinite(tissue_sd) and tissue_sd >= 0):
+            raise UsageError(f"expected a relative SD >= 0, got {tissue_sd!r}",
+                             key="tissue stiffness SD")
+        sd = float(tissue_sd) * np.asarray(cfg.tissue_stiffness, dtype=float)
+    return UncertainInputs(sd, float(tension_sd_N), float(force_sd_N), float(moment_sd_Nm))
+
+
+def parse_sd(text: Optional[str]) -> dict:
+    """Parse ``tissue=from_csv,tension=0.1,force=0.3,moment=0.01`` (any subset).
+
+    ``tissue`` is ``from_csv`` or a fraction of the stiffness; ``tension`` [N],
+    ``force`` [log force unit] and ``moment`` [log moment unit] are SDs.
+    """
+    out = {"tissue_sd": "from_csv", "tension_sd_N": 0.0, "force_sd_N": 0.0, "moment_sd_Nm": 0.0}
+    names = {"tissue": "tissue_sd", "tension": "tension_sd_N", "force": "force_sd_N",
+             "moment": "moment_sd_Nm"}
+    if not text:
+        return out
+    for item in str(text).split(","):
+        key, sep, val = item.partition("=")
+        key = key.strip()
+        if not sep or key not in names:
+            raise UsageError(f"expected NAME=SD items with NAME among {', '.join(names)}, "
+                             f"got {item.strip()!r}", key="--uncertainty-sd")
+        if key == "tissue" and val.strip() == "from_csv":
+            continue
+        try:
+            v = float(val)
+        except ValueError:
+            v = math.nan
+        if not (math.isfinite(v) and v >= 0):
+            raise UsageError(f"{key}: expected a number >= 0, got {val.strip()!r}",
+                             key="--uncertainty-sd")
+        out[names[key]] = v
+    return out
+
+
+# --------------------------------------------------------------------------- what each arm uses
+def tissue_route(cfg: Config, arm: str) -> str:
+    """How the tissue-stiffness scatter reaches an arm's model (see the module docstring).
+
+    ``'stiffness'`` (the per-location stiffness draws), ``'modulus'`` (the continuum's
+    one Young's modulus) or ``'none'``.
+    """
+    if arm == "rigid":
+        return "none"
+    if arm != "coupled":
+        return "stiffness"
+    derived = cfg.continuum_young_modulus is None
+    if cfg.continuum_surface_stiffness is not None:
+        # an export's K is used as given; only per-patch E ratios from the indenter map act
+        return "stiffness" if derived and cfg.continuum_spread == "per_patch" else "none"
+    return "stiffness" if derived else "modulus"
+
+
+def modulus_sd(cfg: Config, inputs: UncertainInputs) -> float:
+    """Relative SD [-] of ``tissue.continuum.young_modulus`` (0 when the config has none).
+
+    The tissue's relative SD: exactly the fraction given as a number; for SDs
+    from a CSV, the root mean square over the locations of SD / stiffness (the
+    typical relative scatter of one location's measurement).
+    """
+    if cfg.continuum_young_modulus is None:
+        return 0.0
+    k = np.asarray(cfg.tissue_stiffness, dtype=float)
+    sd = np.broadcast_to(np.asarray(inputs.tissue_sd, dtype=float), k.shape)
+    if not sd.any():
+        return 0.0
+    return float(np.sqrt(np.mean((sd / k) ** 2)))
+
+
+def reaches_model(cfg: Config, inputs: UncertainInputs, arm: str) -> bool:
+    """Whether a scattered input changes the arm's model (not counting load-cell noise)."""
+    route = tissue_route(cfg, arm)
+    return bool(inputs.tension_sd_N > 0
+                or (route == "stiffness" and np.any(inputs.tissue_sd))
+                or (route == "modulus" and modulus_sd(cfg, inputs) > 0))
+
+
+def perturbed_inputs(cfg: Config, inputs: UncertainInputs, arm: str,
+                     noise: bool = True) -> list:
+    """The inputs that scatter for an arm, one short phrase each (empty: none)."""
+    out = []
+    route, n = tissue_route(cfg, arm), cfg.n_elements
+    m = int(np.count_nonzero(inputs.tissue_sd))
+    if route == "stiffness" and m:
+        via = ", through the continuum's Young's modulus" if arm == "coupled" else ""
+        out.append(f"tissue.stiffness ({m} of {n} locations{via})")
+    elif route == "modulus" and modulus_sd(cfg, inputs) > 0:
+        out.append(f"tissue.continuum.young_modulus (relative SD "
+                   f"{modulus_sd(cfg, inputs):.3g})")
+    if inputs.tension_sd_N > 0:
+        out.append(f"strap.tension (SD {inputs.tension_sd_N:g} N)")
+    if noise and inputs.noise_sd.any():
+        out.append(f"load-cell noise (SD {inputs.force_sd_N:g} / {inputs.moment_sd_Nm:g})")
+    return out
+
+
+def perturbed_text(cfg: Config, inputs: UncertainInputs, arm: str, noise: bool = True) -> str:
+    """:func:`perturbed_inputs` as one phrase, saying why a given tissue SD does not act."""
+    text = ", ".join(perturbed_inputs(cfg, inputs, arm, noise)) or "none"
+    if np.any(inputs.tissue_sd) and tissue_route(cfg, arm) == "none":
+        why = ("has no tissue springs" if arm == "rigid" else
+               "uses tissue.continuum.surface_stiffness, which does not scatter")
+        text += f" (the tissue stiffness SD is unused: the {arm} arm {why})"
+    return text
+
+
+# --------------------------------------------------------------------------- draws
+def draw_configs(cfg: Config, inputs: UncertainInputs, draws: int, seed: int) -> list:
+    """``draws`` configs with the uncertain inputs drawn (the same draws serve every arm).
+
+    Stiffness and tension come from the stream (seed, 0), the continuum's
+    Young's modulus (when the config gives one) from (seed, 2), so adding the
+    modulus left the other draws as they were.
+    """
+    rng = np.random.default_rng([int(seed), 0])
+    k = cfg.tissue_stiffness + inputs.tissue_sd * rng.standard_normal((draws, cfg.n_elements))
+    t = cfg.strap_tension + inputs.tension_sd_N * rng.standard_normal(draws)
+    if np.any(k <= 0):
+        raise DataError("a Monte Carlo draw gave a tissue stiffness <= 0; expected SDs well "
+                        "below the stiffness (the inputs are Gaussian)", key="tissue.stiffness")
+    if np.any(t < 0):
+        raise DataError("a Monte Carlo draw gave a strap tension < 0; expected an SD well below "
+                        "the tension", key="strap.tension")
+    extra = [{} for _ in range(draws)]
+    r = modulus_sd(cfg, inputs)
+    if r > 0:
+        z = np.random.default_rng([int(seed), 2]).standard_normal(draws)
+        E = cfg.continuum_young_modulus * (1.0 + r * z)
+        if np.any(E <= 0):
+            raise DataError(f"a Monte Carlo draw gave a Young's modulus <= 0 (relative SD "
+                            f"{r:.3g}); expected a relative SD well below 1",
+                            key="tissue.continuum.young_modulus")
+        extra = [{"continuum_young_modulus": float(e)} for e in E]
+    return [dataclasses.replace(cfg, tissue_stiffness=k[d], strap_tension=float(t[d]),
+                                **extra[d]) for d in range(draws)]
+
+
+def check_fe_cache(cfg: Config, inputs: UncertainInputs, arms) -> None:
+    """Refuse (one line) a coupled-arm Monte Carlo whose FE would be rebuilt for every draw.
+
+    Every draw reloads the E = 1 matrices from the disk cache; a cache that
+    cannot be written means one FE build (10-20 s) per draw.
+    """
+    if ("coupled" not in arms or cfg.continuum_surface_stiffness is not None
+            or cfg.continuum_thickness is None or not reaches_model(cfg, inputs, "coupled")):
+        return
+    from ..io.surface_stiffness import load_or_build
+    from .common import geometry_from_config, model_from_config
+
+    try:    # builds the cache entry (K is linear in E: any E keys the same entry)
+        _, info = load_or_build(geometry_from_config(cfg), cfg.continuum_thickness, 1.0,
+                                cfg.poisson_ratio)
+    except ValueError:
+        model_from_config(cfg, "coupled")   # the config's own one-line error
+        raise
+    if info.get("cache_error"):
+        raise UsageError(f"the coupled arm's Monte Carlo needs the surface-stiffness cache, "
+                         f"else the FE is rebuilt for every draw: {info['cache_error']}; set "
+                         "it to a writable folder", key="PHRI_SPRING_CACHE")
+
+
+# --------------------------------------------------------------------------- Sobol inputs
+def sobol_inputs(cfg: Config, inputs: UncertainInputs, arm: str) -> list:
+    """The scalar inputs of the Sobol indices for an arm: (name, mean, sd, (kind, j)) each.
+
+    Each location's tissue stiffness with a non-zero SD (if it reaches the arm),
+    or the continuum's Young's modulus, and the strap tension if its SD is non-zero.
+    """
+    out = []
+    route = tissue_route(cfg, arm)
+    if route == "stiffness":
+        for j, lab in enumerate(cfg.labels):
+            if inputs.tissue_sd[j] > 0:
+                out.append((f"tissue.stiffness[{lab}]", float(cfg.tissue_stiffness[j]),
+                            float(inputs.tissue_sd[j]), ("k", j)))
+    elif route == "modulus" and modulus_sd(cfg, inputs) > 0:
+        E = float(cfg.continuum_young_modulus)
+        out.append(("tissue.continuum.young_modulus", E, modulus_sd(cfg, inputs) * E,
+                    ("E", 0)))
+    if inputs.tension_sd_N > 0:
+        out.append(("strap.tension", float(cfg.strap_tension), inputs.tension_sd_N, ("t", 0)))
+    return out
+
+
+def config_at(cfg: Config, which, x) -> Config:
+    """The config with the Sobol inputs ``which`` ((kind, j) of :func:`sobol_inputs`) at ``x``
+    (clipped to stay physical: a stiffness or modulus > 0, a tension >= 0)."""
+    k = np.array(cfg.tissue_stiffness, dtype=float)
+    t, E = cfg.strap_tension, cfg.continuum_young_modulus
+    for (kind, j), v in zip(which, x):
+        if kind == "k":
+            k[j] = max(v, 1e-9 * k[j])
+        elif kind == "E":
+            E = max(v, 1e-9 * E)
+        else:
+            t = max(v, 0.0)
+    return dataclasses.replace(cfg, tissue_stiffness=k, strap_tension=float(t),
+                               continuum_young_modulus=E)
