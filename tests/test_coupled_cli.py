@@ -1,5 +1,5 @@
 """``--arm coupled`` end to end: config, built-in FE or a user's export, simulate, compare,
-stiffness, and every bad input of issue 11 (one line, exit status, nothing written).
+stiffness, and every bad continuum input (one line, exit status, nothing written).
 
 The rigid-cuff check ties the contact solver to the FE: with a rigid cuff held by a
 preload that keeps every patch pressing, the coupled model's force increments for the
@@ -222,3 +222,32 @@ def test_per_patch_spread_scales_each_patch_by_its_modulus(export, tmp_path):
     np.testing.assert_allclose(scaled.K_t[e:e + 6, e:e + 6], s[10] * base.K_t[e:e + 6, e:e + 6],
                                rtol=1e-12)
     np.testing.assert_allclose(scaled.K_t[:6, :6], s[0] * base.K_t[:6, :6], rtol=1e-12)
+
+
+@pytest.mark.parametrize("nu", [0.46, 0.49, 0.499])
+def test_poisson_ratio_above_the_fe_s_converged_range_is_refused(tmp_path, harmony, nu):
+    """Above nu = 0.45 the built-in FE locks (its stiffness still changes by 7-8 % per mesh
+    refinement at 0.49): one line naming the key and the limit, exit 1, nothing written,
+    before any FE is built."""
+    data = copy.deepcopy(harmony)
+    data["tissue"]["poisson_ratio"] = nu
+    data["tissue"]["continuum"] = {"thickness": 0.015, "young_modulus": 8.0e4}
+    cfg = tmp_path / "cfg.yaml"
+    cfg.write_text(yaml.safe_dump(data))
+    out = tmp_path / "f.csv"
+    res = run("simulate", cfg, "examples/wrench_log.csv", "-o", out, "--arm", "coupled")
+    one_line_error(res, 1, "tissue.poisson_ratio", "0.45")
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["cfg.yaml"]
+    with pytest.raises(ValueError, match="poisson_ratio"):
+        fe_tissue.flat_punch_stiffness(0.02, 1.0, nu, level=1)
+
+
+def test_poisson_ratio_above_0_45_is_fine_with_a_users_own_fe(export, tmp_path):
+    """The limit is the built-in FE's: a user's surface stiffness with its modulus runs."""
+    data = yaml.safe_load(export.read_text())
+    data["tissue"]["poisson_ratio"] = 0.49
+    data["tissue"]["continuum"]["young_modulus"] = 3.0e4
+    export.write_text(yaml.safe_dump(data))
+    res = run("simulate", export, "examples/wrench_log.csv", "-o", tmp_path / "f.csv",
+              "--arm", "coupled")
+    assert res.exit_code == 0, stderr_of(res)

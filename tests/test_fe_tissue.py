@@ -306,7 +306,7 @@ def test_modulus_from_indenter_inverts_the_punch():
 
 
 @settings(max_examples=15, deadline=None)
-@given(E=st.floats(1e2, 1e7), nu=st.sampled_from([0.0, 0.3, 0.45, 0.49]),
+@given(E=st.floats(1e2, 1e7), nu=st.sampled_from([0.0, 0.3, 0.4, 0.45]),
        t=st.sampled_from([0.005, 0.02]))
 def test_punch_is_linear_in_e_and_above_sneddon(E, nu, t):
     k = fe.flat_punch_stiffness(t, E, nu, level=1)

@@ -3,7 +3,9 @@
 The arm's soft tissue is a linear elastic tube between a rigid, fixed bone
 (r = R - t) and the skin (r = R), meshed with structured triquadratic hexahedra
 (27 nodes, ``ElementHex2`` on a ``MeshHex2`` of scikit-fem) in cylindrical
-coordinates. Quadratic elements do not lock for Poisson ratios up to 0.45, and
+coordinates. Quadratic elements converge for Poisson ratios up to 0.45 (above it they
+lock: the stiffness converges slowly from above, by 7-8 % per refinement at 0.49, so
+:data:`~phri_spring.physics.fe_mesh.MAX_POISSON_RATIO` refuses it), and
 since the mesh is isoparametric (its nodes lie on the true cylinders) every
 rigid motion of the skin is represented exactly.
 

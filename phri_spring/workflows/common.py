@@ -128,6 +128,17 @@ def _coupled_model(cfg: Config, cache_dir=None):
         raise ConfigError(f"the coupled model needs a Poisson ratio below 0.5 (a compressible "
                           f"continuum), got {cfg.poisson_ratio:g}", file=cfg.path,
                           key="tissue.poisson_ratio")
+    from ..physics.fe_mesh import MAX_POISSON_RATIO
+
+    # the built-in FE builds K, or turns indenter stiffness into E for a per-patch spread
+    builtin_fe = cfg.continuum_surface_stiffness is None or (
+        cfg.continuum_young_modulus is None and cfg.continuum_spread == "per_patch")
+    if builtin_fe and cfg.poisson_ratio > MAX_POISSON_RATIO:
+        raise ConfigError(f"the built-in FE of the coupled arm is converged up to "
+                          f"{MAX_POISSON_RATIO} (its elements lock as nu -> 0.5), got "
+                          f"{cfg.poisson_ratio:g}; use <= {MAX_POISSON_RATIO}, or give your own "
+                          f"FE's tissue.continuum.surface_stiffness and young_modulus",
+                          file=cfg.path, key="tissue.poisson_ratio")
     from ..io.surface_stiffness import load_or_build, load_surface_stiffness
 
     N = None
