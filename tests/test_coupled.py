@@ -268,3 +268,22 @@ def test_normal_output_map_is_consistent_with_the_default():
     np.testing.assert_allclose(solve(perturbed, np.zeros(6)).forces, spring_f0, rtol=1e-9)
     with pytest.raises(ValueError, match="normal output"):
         build_coupled_model(g, K, k_c, normal_output=N[:, :10])
+
+
+def test_an_output_map_that_cannot_report_the_preload_is_refused():
+    """With N_e = n_e^T K_t,e the patches report the hoop preload f0 at zero wrench. An
+    output map under which one patch would have to pull to report its f0 (here: that
+    patch's map reversed) cannot give the documented preload; it is refused by name
+    instead of silently falling back to other patch forces."""
+    rng = np.random.default_rng(4)
+    g = _geometry()
+    k_t = rng.uniform(30e3, 60e3, g.n)
+    K = _diagonal_K(g, k_t, shear_ratio_from_poisson(0.45))
+    N = np.zeros((g.n, 3 * g.n))
+    for e in range(g.n):
+        N[e, 3 * e:3 * e + 3] = g.normals[e] @ K[3 * e:3 * e + 3, 3 * e:3 * e + 3]
+    N[4] *= -1.0
+    with pytest.raises(ValueError, match=rf"patch {g.labels[4]} would have to pull"):
+        build_coupled_model(g, K, 1e5, strap_tension=15.0, normal_output=N)
+    # without a strap there is no preload to report: the same map is accepted
+    build_coupled_model(g, K, 1e5, strap_tension=0.0, normal_output=N)

@@ -453,10 +453,21 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
         normals = np.arange(n) * dofs
         P0[normals] = f0
         if N_out is not None and strap_tension > 0:
-            # normal patch forces p such that the patches *report* f0 at zero wrench
-            p = np.linalg.solve((N_out @ C_t)[:, normals], f0)
-            if np.all(p > 0):
-                P0[normals] = p
+            # normal patch forces p such that the patches *report* f0 at zero wrench; a
+            # pulling p would mean an output map that does not fit its stiffness (a patch
+            # pressed alone reporting a pull), and the preload could not be the hoop's
+            try:
+                p = np.linalg.solve((N_out @ C_t)[:, normals], f0)
+            except np.linalg.LinAlgError:
+                p = np.full(n, np.nan)
+            if not np.all(p > 0):
+                bad = int(np.argmax(~(p > 0)))
+                raise ValueError(f"normal output: with this map the strap's hoop preload cannot "
+                                 f"be carried by pressing patches (patch "
+                                 f"{geometry.labels[bad]} would have to pull to report its "
+                                 f"{f0[bad]:.3g} N); check that the output map belongs to "
+                                 f"the surface stiffness")
+            P0[normals] = p
         delta = C @ P0
         W_pre = T.T @ P0
     else:
