@@ -2,7 +2,7 @@
 
     python benchmarks/coupled_benchmark.py            # writes benchmarks/COUPLED_RESULTS.md
 
-Targets (issue 11): the coupled solve of a one-hour 100 Hz log (360,000 samples) runs
+Targets: the coupled solve of a one-hour 100 Hz log (360,000 samples) runs
 at >= 25 % of the spring model's samples/s; the single-sample ``Solver`` call takes
 <= 100 us (median). The surface stiffness comes from the built-in FE (the ``fe``
 extra), built once and cached; the first build and a cached reload are timed too.

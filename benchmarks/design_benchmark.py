@@ -1,4 +1,4 @@
-"""Benchmark of ``phri design`` (issue 12): a 1,000-design grid over a 10-minute 100 Hz log.
+"""Benchmark of ``phri design``: a 1,000-design grid over a 10-minute 100 Hz log.
 
 Usage (from the repository root, after `pip install -e .[dask]`):
 

@@ -1,4 +1,4 @@
-"""Benchmarks of phri-spring (issue 5): every scenario against its baseline, in one run.
+"""Benchmarks of phri-spring: every scenario against its baseline, in one run.
 
 Usage (from the repository root, after `pip install -e .`):
 
@@ -279,7 +279,7 @@ def main():
     row("  peak memory, Parquet -> Parquet", f"{rss_pq:.0f} MB", "", "", "<= 500 MB",
         rss_pq <= 500)
 
-    # 3b. compare: figures against tables only (issue 14)
+    # 3b. compare: figures against tables only
     bench_compare(phri, work, reps, row)
 
     # 4. longer logs: streaming in bounded memory, time linear in length. The 100-sample,
@@ -308,7 +308,7 @@ def main():
         row("  peak memory, 1 h / 3 h / 10 h",
             " / ".join(f"{timed[h][1]:.0f}" for h in (1, 3, 10)) + " MB", "", "", "<= 500 MB",
             max(timed[h][1] for h in (1, 3, 10)) <= 500)
-        # --plot on the 10 h log: memory against the run without it (issue 14)
+        # --plot on the 10 h log: memory against the run without it
         bench_plot(phri, work, row, logs_h[10])
         for hours in (3, 10):
             logs_h[hours].unlink()

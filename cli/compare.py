@@ -1,4 +1,4 @@
-"""``phri compare``: RMSE of rigid- and compliant-arm predictions against a sensorized cuff."""
+"""``phri compare``: RMSE of the arm models' predictions (rigid, compliant, coupled) against a sensorized cuff."""
 
 from __future__ import annotations
 

@@ -66,7 +66,7 @@ _COMMANDS = {
 _SHORT_HELP = {
     "simulate": "Wrench log -> contact force of every cuff element [N].",
     "fit-stiffness": "Indenter recordings -> tissue stiffness map [N/m].",
-    "compare": "RMSE of rigid- and compliant-arm predictions against a sensorized cuff.",
+    "compare": "RMSE of the arm models' predictions (rigid, compliant, coupled) against a sensorized cuff.",
     "stiffness": "Interface stiffness of the cuff on the arm at the load cell [N/mm, N*m/deg].",
     "design": "Parameter study of a cuff over a load set -> Pareto designs, best config.",
 }

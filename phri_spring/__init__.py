@@ -14,7 +14,7 @@ and the command line stay fast)::
 - :func:`simulate`             wrench array (m, 6) -> forces (m, n) [N] and per-sample extras
 - :func:`simulate_file`        wrench log file -> forces file, streamed in bounded memory
 - :func:`fit_stiffness`        indenter recordings -> tissue stiffness map [N/m]
-- :func:`compare`              rigid vs compliant predictions against a sensorized cuff
+- :func:`compare`              arm models' predictions (rigid, compliant, coupled) against a sensorized cuff
 - :class:`Solver`              one sample per call, warm-started (control loops)
 - :func:`model_from_config`    config -> :class:`~phri_spring.physics.model.SpringModel`
 - :func:`cuff_wrench`          load-cell readings (m, 6) -> wrench on the cuff (m, 6) [N, N*m]

@@ -1,4 +1,4 @@
-"""External reference: the spring model's forces reproduced by PyNite (issue 15, item 6).
+"""External reference: the spring model's forces reproduced by PyNite, an independent frame-analysis package.
 
 Provenance
 ----------

@@ -1,4 +1,4 @@
-"""The optimised batch solver gives the results of the plain per-sample path (issue 5).
+"""The optimised batch solver gives the results of the plain per-sample path (docs/performance.md).
 
 `solve` (vectorised, cached factorisations, warm start, dense Cholesky for
 fine meshes, chunked blocks) must agree with `solve_per_sample` (one sample at
@@ -286,7 +286,7 @@ def test_streamed_summary_peak_is_the_first_largest_over_all_chunks(tmp_path):
 
 @pytest.mark.parametrize("arm", ["compliant", "rigid"])
 def test_absurd_finite_wrenches_are_not_converged_and_warn_nothing(arm):
-    # issue 13: a finite wrench so large that the forces overflow is no answer: the sample
+    # a finite wrench so large that the forces overflow is no answer: the sample
     # is reported as not converged with NaN forces, its neighbours are untouched, and no
     # RuntimeWarning escapes (the test suite turns those into errors)
     model = _model(3, 7, arm=arm, seed=1)

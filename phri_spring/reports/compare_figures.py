@@ -3,7 +3,7 @@
 Only :class:`matplotlib.figure.Figure` is used (never pyplot), so the figures
 work in any thread and need no display. Save them with :func:`save_figure`.
 
-- :func:`rmse_bars_figure`  Fig. 7: mean RMSE per condition, rigid vs compliant,
+- :func:`rmse_bars_figure`  Fig. 7: mean RMSE per condition and arm model,
   error bars = standard error, one panel per experiment and direction.
 - :func:`heatmap_figure`    Fig. 8b: measured | rigid | compliant zeroed loads on
   the rows x locations grid, one diverging colour scale centred on zero.
@@ -41,7 +41,7 @@ def condition_label(condition: str, load_n: Optional[float]) -> str:
 
 def rmse_bars_figure(summary, rmse=None, *, arms: Sequence[str] = ("rigid", "compliant"),
                      ncols: Optional[int] = None) -> Figure:
-    """Fig. 7: grouped bars of the mean RMSE per condition, rigid vs compliant.
+    """Fig. 7: grouped bars of the mean RMSE per condition, one bar per arm model compared.
 
     Parameters
     ----------

@@ -179,7 +179,7 @@ def _with_tissue(cfg: Config, tissue_stiffness) -> Config:
 
 def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT_ARMS,
             tissue_stiffness=None, columns: Optional[dict] = None) -> CompareResult:
-    """Compare the rigid- and compliant-arm predictions with a sensorized-cuff experiment.
+    """Compare the arm models' predictions (rigid, compliant, coupled) with a sensorized-cuff experiment.
 
     Parameters
     ----------
@@ -560,7 +560,7 @@ def _report(result: CompareResult, fig_index, figures: bool) -> str:
         "",
     ]
     if figures and len(result.summary):
-        lines += ["![RMSE per condition, rigid vs compliant arm (Fig. 7)](rmse_bars.png)", ""]
+        lines += ["![RMSE per condition and arm model (Fig. 7)](rmse_bars.png)", ""]
     lines += ["## RMSE per trial", "", _rmse_markdown(result), ""]
     if figures:
         lines += ["## Figures per trial", "",

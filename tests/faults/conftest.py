@@ -1,4 +1,4 @@
-"""Fixtures of the fault-injection tests (issue 13): small real inputs, made once."""
+"""Fixtures of the fault-injection tests: small real inputs, made once."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Data at the edges (issue 13): values no double can hold ("1e999" parses to inf), missing
+"""Data at the edges: values no double can hold ("1e999" parses to inf), missing
 values spelled otherwise than an empty cell, absurd but finite wrenches (no Python warning
 line), and an indenter not at rest in its zero window (the message blames the right thing).
 """

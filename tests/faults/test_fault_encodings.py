@@ -1,4 +1,4 @@
-"""Text encodings (issue 13): every text input in UTF-8 (with or without BOM), UTF-16 LE/BE
+"""Text encodings: every text input in UTF-8 (with or without BOM), UTF-16 LE/BE
 with BOM and Latin-1 is read as the same data; binary junk and BOM-less UTF-16 are refused
 with one line naming the file.
 

@@ -1,4 +1,4 @@
-"""Outputs the system refuses (issue 13): a file where a folder should be, a virtual file
+"""Outputs the system refuses: a file where a folder should be, a virtual file
 system that holds no files (/sys), a full device (/dev/full: ENOSPC) and a file-size limit
 (RLIMIT_FSIZE in a real child process: EFBIG) hit in the middle of writing a CSV, a Parquet
 file or figures. Each ends in one line naming the path and the reason, exit 1, the existing

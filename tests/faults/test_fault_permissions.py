@@ -1,4 +1,4 @@
-"""Permissions (issue 13): new outputs honour the umask like any other tool (0644 files and
+"""Permissions: new outputs honour the umask like any other tool (0644 files and
 0755 folders under umask 022), and a replaced output keeps its own mode.
 """
 

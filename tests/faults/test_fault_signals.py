@@ -1,4 +1,4 @@
-"""Signals (issue 13): SIGTERM, SIGHUP (and SIGINT) sent to a real ``phri`` process in the
+"""Signals: SIGTERM, SIGHUP (and SIGINT) sent to a real ``phri`` process in the
 middle of writing its output: the temporary files are removed, an existing output is left
 byte-identical, stderr holds one line and the exit status is 128 + the signal number.
 

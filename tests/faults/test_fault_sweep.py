@@ -1,4 +1,4 @@
-"""A sweep of hostile inputs a user can give each command (issue 13): every one ends in one
+"""A sweep of hostile inputs a user can give each command: every one ends in one
 line and exit 1 (bad data) or 2 (bad usage), never "internal error", and leaves no
 temporary file. The classes have their own modules; this one is their long tail.
 """

@@ -1,4 +1,4 @@
-"""Hostile YAML (issue 13): configs and manifests whose aliases expand exponentially, that
+"""Hostile YAML: configs and manifests whose aliases expand exponentially, that
 nest deeply, refer to themselves or hold numbers no double or int64 can: refused with one
 line naming the key, within 1 s and 200 MB; ordinary anchors, aliases and merge keys work.
 
