@@ -7,9 +7,12 @@ keys), unknown keys are rejected with the closest valid name, and paths are
 resolved against the study file's folder. Errors are :class:`ConfigError`
 naming the study file and the key path (``vary.strap.tension.range``).
 
-This module only checks the study's own shape; whether a parameter path exists
-in the config, and whether each design's values are valid there, is checked by
-:mod:`phri_spring.workflows.design` against the config schema itself.
+Objective names are checked against the objectives table,
+:data:`phri_spring.objectives.OBJECTIVE_TABLE` (:data:`OBJECTIVES` is its names).
+Otherwise this module only checks the study's own shape; whether a parameter
+path exists in the config, and whether each design's values are valid there,
+is checked by :mod:`phri_spring.workflows.design_plan` against the config
+schema itself.
 """
 
 from __future__ import annotations
@@ -24,20 +27,11 @@ from typing import Optional, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import ConfigError
+from ..objectives import OBJECTIVES
 from .config import load_yaml
 
 __all__ = ["Study", "Parameter", "Constraint", "UncertaintySpec", "load_study", "study_from_dict",
            "OBJECTIVES", "parse_path"]
-
-#: objectives a study can minimise, maximise or constrain (names as in designs.csv)
-OBJECTIVES = (
-    "peak_pressure_to_pain_threshold",
-    "peak_pressure_to_pain_threshold_p99",
-    "lift_off_fraction",
-    "stiffness_translational_N_per_mm",
-    "stiffness_rotational_Nm_per_deg",
-    "peak_cuff_displacement_mm",
-)
 
 _PLAN = re.compile(r"^(grid|lhs:(\d+)|sobol:(\d+))$")
 _CONSTRAINT = re.compile(r"^\s*(<=|>=|<|>)\s*([-+0-9.eE]+|[-+]?inf)\s*$")

@@ -1,10 +1,12 @@
 """Evaluating designs for ``phri design``: the load set, the objectives, Pareto sets.
 
-Split out of :mod:`phri_spring.workflows.design` (which builds the designs, runs
-a study and writes its outputs; every name here is re-exported there). The
-objectives are those of :data:`~phri_spring.io.study.OBJECTIVES`, described in
-that module's docstring; identical load-cell rows are merged into one weighted
-row (exact), and an optional tolerance merges near-identical rows (approximate).
+Every name here is re-exported by :mod:`phri_spring.workflows.design`. The
+objectives are the records of :data:`phri_spring.objectives.OBJECTIVE_TABLE`
+(name, unit, sense, definition and the function reducing a solved load set):
+:func:`evaluate_design` solves a design once and loops over that table.
+Identical load-cell rows are merged into one weighted row (exact: every
+objective is a weighted maximum, percentile or fraction), and an optional
+tolerance merges near-identical rows (approximate).
 """
 
 from __future__ import annotations
@@ -21,15 +23,13 @@ import numpy as np
 from ..errors import DataError
 from ..io.config import Config
 from ..io.logs import read_wrench_log
-from ..io.study import OBJECTIVES
+from ..objectives import OBJECTIVE_TABLE, OBJECTIVES, SolvedLoadSet, weighted_percentile
 from ..physics.solver import solve
 from ..physics.stiffness import interface_stiffness, principal_stiffness, stiffness_at_loadcell
 from .common import cuff_wrench, model_from_config
 
 __all__ = ["LoadSet", "load_set", "evaluate_batch", "evaluate_design", "pareto_mask",
            "weighted_percentile"]
-
-_P99 = 99.0
 
 
 # --------------------------------------------------------------------------- load set
@@ -110,104 +110,47 @@ def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
 
 
 # --------------------------------------------------------------------------- objectives
-def weighted_percentile(values, weights, q: float) -> float:
-    """numpy's default (linear) percentile of ``values`` repeated ``weights`` times.
-
-    Equal to ``np.percentile(np.repeat(values, weights), q)`` for integer
-    weights, without building the repeated array; fractional weights
-    interpolate the same way on the cumulative weights.
-    """
-    v = np.asarray(values, dtype=float)
-    w = np.asarray(weights, dtype=float)
-    if np.all(w == 1.0):
-        return float(np.percentile(v, q))
-    order = np.argsort(v, kind="stable")
-    v, w = v[order], w[order]
-    cum = np.cumsum(w)                      # rows 0 .. cum[i]-1 hold v[i]
-    n = cum[-1]
-    h = (n - 1) * q / 100.0
-    lo = math.floor(h)
-    frac = h - lo
-    i_lo = int(np.searchsorted(cum, lo, side="right"))
-    i_hi = int(np.searchsorted(cum, min(lo + 1, n - 1), side="right"))
-    a, b = v[min(i_lo, len(v) - 1)], v[min(i_hi, len(v) - 1)]
-    if frac == 0.0 or a == b:
-        return float(a)
-    # numpy's _lerp, including its choice of form for t >= 0.5
-    return float(b - (b - a) * (1 - frac)) if frac >= 0.5 else float(a + (b - a) * frac)
-
-
-def _max_displacement_m(u: np.ndarray, points: np.ndarray) -> float:
-    """max over samples and elements of |t + w x p_e| [m] (u = (t, w), shape (m, 6)).
-
-    Exact: |t + w x p_e| <= |t| + |w| max_e |p_e| bounds every sample; only the
-    samples whose bound reaches the largest exact value among the 64 highest
-    bounds are evaluated element by element.
-    """
-    t, w = u[:, :3], u[:, 3:]
-    rmax = float(np.max(np.linalg.norm(points, axis=1)))
-    ub = np.sqrt(np.einsum("ij,ij->i", t, t)) + np.sqrt(np.einsum("ij,ij->i", w, w)) * rmax
-
-    def exact(idx):
-        d = t[idx, None, :] + np.cross(w[idx, None, :], points[None, :, :])
-        return np.sqrt(np.einsum("ijk,ijk->ij", d, d)).max()
-
-    top = np.argpartition(ub, -64)[-64:] if len(ub) > 64 else np.arange(len(ub))
-    low = exact(top)
-    cand = np.flatnonzero(ub >= low)
-    best = low
-    for s in range(0, len(cand), 65536):
-        best = max(best, exact(cand[s:s + 65536]))
-    return float(best)
-
-
 def evaluate_design(cfg: Config, loads: LoadSet, arm: str) -> dict:
-    """Objectives of one design over a load set (see the module docstring).
+    """Objectives of one design over a load set: every record of :data:`OBJECTIVE_TABLE`.
+
+    The design is solved over the load set once; each objective then reduces
+    the solved set. With samples the solver did not converge on, the
+    objectives that use the loads are NaN.
 
     Returns
     -------
     dict
-        Every name of :data:`OBJECTIVES` -> float, ``not_converged_samples`` -> int,
+        ``not_converged_samples`` -> int, every objective's name -> float,
         ``element_peak_pressure_kPa`` -> (n,) max pressure of each element over samples.
     """
     model = model_from_config(cfg, arm)
     W = cuff_wrench(cfg, loads.wrench_lc)
     sol = solve(model, W, max_iterations=cfg.max_iterations)
     w = loads.weights
-    n = model.n
     bad = ~np.asarray(sol.converged, dtype=bool)
     n_bad = int(w[bad].sum())
     inv_area_kpa = 1.0 / (1000.0 * model.areas)
-    contact = sol.contact  # the solver's set: a pressing coupled patch can report 0 N
     pressure = np.multiply(sol.forces, inv_area_kpa, out=sol.forces)  # (k, n) kPa, in place
+    solved = SolvedLoadSet(pressure, sol.contact, sol.u, model.geometry.points, w,
+                           loads.n_samples, model.pain_threshold_kpa,
+                           _principal_stiffness(model, cfg))
     out = {"not_converged_samples": n_bad}
-    if n_bad:
-        for name in OBJECTIVES:
-            out[name] = math.nan
-        out["element_peak_pressure_kPa"] = np.full(n, np.nan)
-    else:
-        peak = pressure.max(axis=1)
-        ratio = peak / model.pain_threshold_kpa
-        out["peak_pressure_to_pain_threshold"] = float(ratio.max())
-        out["peak_pressure_to_pain_threshold_p99"] = weighted_percentile(ratio, w, _P99)
-        if len(w) == loads.n_samples:               # no merged rows: every weight is 1
-            in_contact = float(np.count_nonzero(contact))
-        else:
-            in_contact = float(w @ np.count_nonzero(contact, axis=1))
-        out["lift_off_fraction"] = (loads.n_samples * n - in_contact) / (loads.n_samples * n)
-        out["peak_cuff_displacement_mm"] = 1000.0 * _max_displacement_m(sol.u,
-                                                                         model.geometry.points)
-        out["element_peak_pressure_kPa"] = pressure.max(axis=0)
+    for obj in OBJECTIVE_TABLE:
+        out[obj.name] = math.nan if n_bad and obj.uses_loads else obj.compute(solved)
+    out["element_peak_pressure_kPa"] = np.full(model.n, np.nan) if n_bad else \
+        pressure.max(axis=0)
+    return out
+
+
+def _principal_stiffness(model, cfg: Config) -> Optional[tuple]:
+    """(translational [N/m], rotational [N*m/rad]) ascending principal stiffness at the
+    load cell at the preloaded state, or None when the preload does not converge."""
     try:
         K = interface_stiffness(model, max_iterations=cfg.max_iterations)
-        Kt, Kr = principal_stiffness(stiffness_at_loadcell(K, cfg.loadcell_rotation,
-                                                           cfg.loadcell_position))
-        out["stiffness_translational_N_per_mm"] = float(Kt[0]) / 1000.0
-        out["stiffness_rotational_Nm_per_deg"] = float(Kr[0]) * math.pi / 180.0
+        return principal_stiffness(stiffness_at_loadcell(K, cfg.loadcell_rotation,
+                                                         cfg.loadcell_position))
     except RuntimeError:
-        out["stiffness_translational_N_per_mm"] = math.nan
-        out["stiffness_rotational_Nm_per_deg"] = math.nan
-    return out
+        return None
 
 
 def evaluate_batch(batch, shared) -> dict:

@@ -233,7 +233,7 @@ def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
 def _objectives_at(cfg, loads, arm, objectives) -> tuple[np.ndarray, np.ndarray]:
     """(objective values (k,) in the order of ``objectives``, each element's peak pressure
     over the load set (n,) [kPa]) of one design."""
-    from .design import evaluate_design
+    from .design_objectives import evaluate_design
 
     r = evaluate_design(cfg, loads, arm)
     return np.array([r[o] for o in objectives], dtype=float), r["element_peak_pressure_kPa"]
