@@ -307,3 +307,21 @@ def test_compare_lab_trials_give_the_csv_tables(tmp_path, fmt):
     res = invoke("compare", HARMONY_CONFIG, man, "-o", tmp_path / "out", "--no-figures", "-q",
                  "--group", "trial")
     assert res.exit_code == 0, res.stderr
+
+
+def test_row_count_is_that_of_the_group_read(tmp_path):
+    """The progress total of a lab file of several groups counts the group that is read
+    (given as --group or in the column map, as the reader takes it), not the longest
+    channel of any group: 100 rows here, with 460 in the other group."""
+    from nptdms import ChannelObject, GroupObject, TdmsWriter
+
+    from phri_spring.io.config import LOG_GROUP_KEY
+    from phri_spring.io.logs import count_rows
+
+    path = tmp_path / "two.tdms"
+    with TdmsWriter(str(path)) as wr:
+        wr.write_segment([GroupObject("long"), ChannelObject("long", "x", np.zeros(460)),
+                          GroupObject("rig"), ChannelObject("rig", "time", np.arange(100.0))]
+                         + [ChannelObject("rig", n, np.zeros(100)) for n in WRENCH])
+    assert count_rows(path, "rig") == 100
+    assert count_rows(path, columns={LOG_GROUP_KEY: "rig"}) == 100

@@ -23,6 +23,11 @@ infinity, a group or struct that does not exist, a missing optional package
 The group travels with the column map under the key :data:`LOG_GROUP_KEY`
 (``--group`` and ``load_cell.group`` put it there), so every function that
 takes a column map takes a group too.
+
+The wrench-log recipes :data:`TDMS` and :data:`MAT` (see
+:class:`phri_spring.io.log_base.LogFormat`) are registered with the CSV and
+Parquet ones in :data:`phri_spring.io.log_formats.LOG_FORMATS`. This module
+imports :mod:`phri_spring.io.log_base` only, never the registry above it.
 """
 
 from __future__ import annotations
@@ -35,12 +40,10 @@ import numpy as np
 
 from ..errors import DataError
 from .config import LOG_COLUMNS, LOG_GROUP_KEY
+from .log_base import LogFormat, WrenchChunk, check_chunk
 
-__all__ = ["LAB_FORMATS", "lab_format", "iter_lab_log", "lab_row_count", "read_lab_frame",
-           "LOG_GROUP_KEY"]
-
-#: extension -> lab format
-LAB_FORMATS = {".tdms": "tdms", ".mat": "mat"}
+__all__ = ["LAB_FORMATS", "TDMS", "MAT", "lab_format", "iter_lab_log", "lab_row_count",
+           "read_lab_frame", "LOG_GROUP_KEY"]
 
 _EXTRA = "install it with: pip install -e '.[lab]' (or pip install 'phri-spring[lab]')"
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
@@ -66,6 +69,9 @@ def _listing(names) -> str:
 class _Source:
     """The channels of one group of a lab file, read lazily by name.
 
+    One subclass per lab format; its class attributes ``name`` and
+    ``suffixes`` make that format's recipe (:func:`_recipe`).
+
     Attributes
     ----------
     names : list of str
@@ -75,8 +81,15 @@ class _Source:
     """
 
     kind = ""
+    name = ""
+    suffixes: tuple = ()
     names: list
     where = ""
+
+    @staticmethod
+    def row_count(path: Path, group: Optional[str]) -> int:
+        """Samples in the group (the longest channel; of the whole file when None)."""
+        raise NotImplementedError
 
     def length(self, name: str) -> int:
         raise NotImplementedError
@@ -93,6 +106,8 @@ class _Source:
 
 class _TdmsSource(_Source):
     kind = "TDMS"
+    name = "tdms"
+    suffixes = (".tdms",)
 
     def __init__(self, path: Path, group: Optional[str]):
         try:
@@ -143,9 +158,20 @@ class _TdmsSource(_Source):
         if f is not None:
             f.close()
 
+    @staticmethod
+    def row_count(path, group):
+        """The longest channel of the group (of every group when None), from the metadata."""
+        from nptdms import TdmsFile
+
+        meta = TdmsFile.read_metadata(path)
+        groups = [g for g in meta.groups() if group is None or g.name == group]
+        return max((len(c) for g in groups for c in g.channels()), default=0)
+
 
 class _MatSource(_Source):
     kind = "MAT"
+    name = "mat"
+    suffixes = (".mat",)
 
     def __init__(self, path: Path, group: Optional[str]):
         data = _load_mat(path)
@@ -197,6 +223,18 @@ class _MatSource(_Source):
     def read(self, name, start=0, stop=None):
         return self._vector(name)[start:stop]
 
+    @staticmethod
+    def row_count(path, group):
+        """The longest vector in the struct (in the whole file, structs too, when None)."""
+        data = _load_mat(path)
+        if group is not None:
+            data = data[group]
+
+        def longest(d):
+            return max((longest(v) if isinstance(v, dict) else np.size(v)
+                        for k, v in d.items() if not str(k).startswith("__")), default=0)
+        return int(longest(data))
+
 
 def _load_mat(path: Path) -> dict:
     """The variables of a .mat file: v4/v5/v7 through scipy, v7.3 (HDF5) through pymatreader."""
@@ -227,12 +265,18 @@ def _load_mat(path: Path) -> dict:
                         f"{exc})".replace("\n", " "), file=path) from None
 
 
+#: extension -> source class
+_SOURCES = {suffix: cls for cls in (_TdmsSource, _MatSource) for suffix in cls.suffixes}
+#: extension -> lab format
+LAB_FORMATS = {suffix: cls.name for suffix, cls in _SOURCES.items()}
+
+
 def _open(path: Path, group: Optional[str]) -> _Source:
     if not path.exists():
         raise DataError("file not found", file=path)
     if path.is_dir():
         raise DataError("is a folder; expected a file", file=path)
-    return _TdmsSource(path, group) if lab_format(path) == "tdms" else _MatSource(path, group)
+    return _SOURCES.get(path.suffix.lower(), _MatSource)(path, group)
 
 
 def _require(src: _Source, path: Path, name: str, spec: Optional[str], mapped: bool) -> None:
@@ -298,7 +342,7 @@ def iter_lab_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1310
 
     Yields
     ------
-    phri_spring.io.logs.WrenchChunk
+    phri_spring.io.log_base.WrenchChunk
         time (k,) [s] and the other wanted columns (k, len(wanted) - 1) in the
         file's units.
 
@@ -308,8 +352,6 @@ def iter_lab_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1310
         Missing file, group, struct or channel, a channel of another length,
         text, NaN or infinity in a channel, no samples, a missing optional package.
     """
-    from .logs import WrenchChunk, _check_chunk
-
     path = Path(path)
     columns = dict(columns or {})
     group = columns.pop(LOG_GROUP_KEY, None)
@@ -335,32 +377,40 @@ def iter_lab_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1310
                 _numeric(src, path, time_name, src.read(time_name, start, stop))
             for j, name in enumerate(names, start=1):
                 arr[:, j] = _numeric(src, path, name, src.read(name, start, stop))
-            _check_chunk(arr, start, all_names, path, "lab")
+            check_chunk(arr, all_names, path, first=start + 1)
             yield WrenchChunk(start, arr[:, 0].copy(), arr[:, 1:])
     finally:
         src.close()
 
 
 def lab_row_count(path, group: Optional[str] = None) -> Optional[int]:
-    """Samples in a lab file's group (the length of its longest channel), or None."""
+    """Samples in a lab file's group (the length of its longest channel), or None.
+
+    Without ``group``, the longest channel of the whole file: that is the
+    group's count only when the file has one group (pass the group read).
+    """
     try:
         path = Path(path)
-        if lab_format(path) == "tdms":
-            from nptdms import TdmsFile
-
-            meta = TdmsFile.read_metadata(path)
-            groups = [g for g in meta.groups() if group is None or g.name == group]
-            return max((len(c) for g in groups for c in g.channels()), default=0)
-        data = _load_mat(path)
-        if group is not None:
-            data = data[group]
-
-        def longest(d):
-            return max((longest(v) if isinstance(v, dict) else np.size(v)
-                        for k, v in d.items() if not str(k).startswith("__")), default=0)
-        return int(longest(data))
+        return _SOURCES.get(path.suffix.lower(), _MatSource).row_count(path, group)
     except Exception:  # noqa: BLE001 - best effort (progress, plot bins); reading reports errors
         return None
+
+
+def _count_log_rows(path, columns: Optional[dict] = None) -> Optional[int]:
+    """:func:`lab_row_count` in the group of a column map (see LogFormat.count_rows)."""
+    return lab_row_count(path, (columns or {}).get(LOG_GROUP_KEY))
+
+
+def _recipe(source: type) -> LogFormat:
+    """The wrench-log recipe of a lab format, from its source class."""
+    return LogFormat(source.name, source.suffixes, read=iter_lab_log,
+                     count_rows=_count_log_rows)
+
+
+#: National Instruments TDMS wrench logs (npTDMS)
+TDMS = _recipe(_TdmsSource)
+#: MATLAB .mat wrench logs (scipy; v7.3 through pymatreader)
+MAT = _recipe(_MatSource)
 
 
 # --------------------------------------------------------------------------- trial tables

@@ -375,7 +375,8 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     mean_lc = _window_mean(log, colmap, base, chunk_rows) if base.kind in ("first", "window") \
         else None
     f_base = _baseline_forces(model, cfg, base, mean_lc, cfg.max_iterations)
-    total = count_rows(log) if progress is not None else None
+    # the same column map as the reader: a TDMS/MAT log counts the rows of the group read
+    total = count_rows(log, columns=colmap) if progress is not None else None
 
     # fine meshes: fewer rows per chunk, so a chunk's arrays stay about 32 MB
     rows = max(1024, min(int(chunk_rows), (1 << 22) // model.n))

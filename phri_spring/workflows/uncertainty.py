@@ -259,7 +259,7 @@ def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
     """
     import pandas as pd
 
-    from .design import LoadSet
+    from .design_objectives import LoadSet
 
     inputs = uncertain_inputs(cfg, tissue_sd=spec.tissue_stiffness_sd,
                               tension_sd_N=spec.strap_tension_sd_N,
@@ -443,10 +443,9 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
     ratio = {name: pa.float64() for name in RATIO_COLUMNS}
     total = None
     if progress is not None:
-        from ..io.config import LOG_GROUP_KEY
         from ..io.logs import count_rows
 
-        total = count_rows(log, colmap.get(LOG_GROUP_KEY))
+        total = count_rows(log, columns=colmap)
     samples, peak, peak_time = 0, -math.inf, math.nan
     output = Path(output)
     with atomic_file(output) as tmp:
