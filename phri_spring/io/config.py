@@ -20,7 +20,8 @@ from typing import Any, Literal, Optional, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from ..errors import ConfigError, ConfigTypeError, DataError
+from ..errors import ConfigError, ConfigTypeError
+from .config_values import _read_stiffness_csv, resolve_stiffness  # noqa: F401
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
 
@@ -107,6 +108,7 @@ class _Continuum(_Strict):
 
 class _Tissue(_Strict):
     stiffness: _StiffnessValue = Field(json_schema_extra=_unit("N/m"))
+    law: str = "linear"
     basis: Literal["indenter", "element"] = "indenter"
     indenter_diameter: float = Field(default=0.009, gt=0, allow_inf_nan=False,
                                      json_schema_extra=_unit("m"))
@@ -187,7 +189,7 @@ def _fields_at(model_cls, loc) -> list[str]:
     return list(getattr(cls, "model_fields", {}))
 
 
-def _pydantic_to_config_error(exc: ValidationError, path) -> ConfigError:
+def _pydantic_to_config_error(exc: ValidationError, path, more_keys=None) -> ConfigError:
     errors = exc.errors(include_url=False)
     # an unknown key explains a "missing" one next to it (a misspelling): report it first
     err = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
@@ -197,7 +199,7 @@ def _pydantic_to_config_error(exc: ValidationError, path) -> ConfigError:
     etype = err["type"]
     if etype == "extra_forbidden":
         bad = loc[-1]
-        valid = _fields_at(_Root, loc[:-1])
+        valid = _fields_at(_Root, loc[:-1]) + list((more_keys or {}).get(".".join(loc[:-1]), ()))
         close = difflib.get_close_matches(bad, valid, n=1, cutoff=0.5)
         hint = f"; did you mean {close[0]!r}?" if close else ""
         parent = ".".join(loc[:-1]) or "the top level"
@@ -255,6 +257,12 @@ class Config:
     continuum_young_modulus: Optional[float] = None    # [Pa] tissue.continuum.young_modulus
     continuum_surface_stiffness: Optional[Path] = None  # a user's FE export (.npz)
     continuum_spread: str = "mean"                     # mean | per_patch
+    tissue_law: str = "linear"                         # a name of physics.tissue_laws.TISSUE_LAWS
+    # the law's class: pickled by reference with the config, so that worker processes (a
+    # design's pool, dask) import the module that defines a law registered in this process
+    tissue_law_class: Optional[type] = None
+    #: the law's parameters: config key -> (n,) array in the parameter's unit
+    tissue_law_parameters: dict = field(default_factory=dict)
     raw: dict = field(default_factory=dict, repr=False)
     #: stiffness CSV files the config reads (inputs: never to be written over)
     stiffness_files: tuple = ()
@@ -270,138 +278,6 @@ class Config:
 
 def _label_list(row_labels, count) -> tuple:
     return tuple(f"{r}{j}" for r in row_labels for j in range(count))
-
-
-def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = False) -> np.ndarray:
-    import pandas as pd
-
-    if not csv_path.is_file():
-        raise ConfigError(f"stiffness file {str(csv_path)!r} not found (paths are relative to the "
-                          "config's folder)", file=path, key=key)
-    import io
-
-    from .textio import read_text
-
-    text = read_text(csv_path, what="a stiffness CSV")
-    try:
-        df = pd.read_csv(io.StringIO(text), comment="#",
-                         dtype={"stiffness_N_per_m": str})  # raw text, for messages
-    except Exception as exc:  # noqa: BLE001 - any parser failure is bad data
-        msg = str(exc).replace("\n", " ")
-        raise DataError(f"cannot read as CSV ({msg})", file=csv_path) from None
-    for col in ("location", "stiffness_N_per_m"):
-        if col not in df.columns:
-            raise DataError(f"missing column {col!r}; expected a CSV written by "
-                            "'phri fit-stiffness'", file=csv_path, key=col)
-    values = pd.to_numeric(df["stiffness_N_per_m"], errors="coerce").astype(float)
-    locs = df["location"].astype(str).str.strip()
-    mapping = {}
-    for loc, v, raw in zip(locs, values, df["stiffness_N_per_m"]):
-        if loc in mapping:
-            raise DataError(f"location {loc!r} appears twice", file=csv_path, key="location")
-        too_big = math.isinf(v) and str(raw).strip().lower().lstrip("+") not in (
-            "inf", "infinity", ".inf")   # e.g. 1e999: a typo, not a rigid element
-        if too_big or not (isinstance(v, float) and v > 0 and (math.isfinite(v) or allow_inf)):
-            what = "a positive stiffness (inf allowed)" if allow_inf else \
-                "a positive finite stiffness"
-            raise DataError(f"location {loc}: expected {what}, got {raw!r}",
-                            file=csv_path, key="stiffness_N_per_m")
-        mapping[loc] = float(v)
-    missing = [lab for lab in labels if lab not in mapping]
-    extra = [loc for loc in mapping if loc not in labels]
-    if missing or extra:
-        parts = []
-        if missing:
-            parts.append(f"missing locations {', '.join(missing)}")
-        if extra:
-            parts.append(f"locations not in the config's geometry {', '.join(extra)}")
-        raise DataError("; ".join(parts) + f" (the geometry has {len(labels)} elements "
-                        f"{labels[0]}..{labels[-1]})", file=csv_path, key="location")
-    return np.array([mapping[lab] for lab in labels])
-
-
-def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, key="",
-                      allow_inf: bool = False, base_dir: Optional[Path] = None) -> np.ndarray:
-    """Turn any stiffness value form of docs/model.md section 6 into an (n,) array [N/m], row-major.
-
-    Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
-    rows x angles list, a mapping label -> value covering every element, or a
-    path (relative to ``base_dir``) to a CSV written by ``phri fit-stiffness``.
-    """
-    n = n_rows * n_angles
-    shape_txt = f"{n_rows} rows x {n_angles} angles"
-
-    def check(arr, k=key):
-        arr = np.asarray(arr, dtype=float)
-        bad = ~(arr > 0) | (np.isinf(arr) & (not allow_inf)) | np.isnan(arr)
-        if bad.any():
-            i = int(np.argmax(bad.ravel()))
-            what = "a positive stiffness (.inf allowed)" if allow_inf else \
-                "a positive finite stiffness"
-            lab = f" at {labels[i]}" if arr.size == n else ""
-            raise ConfigError(f"expected {what} [N/m]{lab}, got {float(arr.ravel()[i])!r}",
-                              file=path, key=k)
-        return arr
-
-    def numbers(seq, k):
-        out = []
-        for i, v in enumerate(seq):
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise ConfigTypeError(f"item {i}: expected a number [N/m], got {v!r}",
-                                      file=path, key=k)
-            out.append(float(v))
-        return out
-
-    if isinstance(value, bool):
-        raise ConfigTypeError(f"expected a stiffness [N/m], got {value!r}", file=path, key=key)
-    if isinstance(value, (int, float)):
-        return np.full(n, float(check(float(value))))
-    if isinstance(value, str):
-        base = base_dir if base_dir is not None else Path(".")
-        csv_path = Path(value) if Path(value).is_absolute() else base / value
-        return check(_read_stiffness_csv(csv_path, labels, path, key, allow_inf))
-    if isinstance(value, dict):
-        if set(value) in ({"per_row"}, {"per_angle"}):
-            (form, seq), = value.items()
-            want = n_rows if form == "per_row" else n_angles
-            k = f"{key}.{form}"
-            if not isinstance(seq, list) or len(seq) != want:
-                got = len(seq) if isinstance(seq, list) else repr(seq)
-                raise ConfigError(f"expected a list of {want} values (one per "
-                                  f"{'row' if form == 'per_row' else 'angle'}), got {got}",
-                                  file=path, key=k)
-            arr = check(numbers(seq, k), k)
-            return np.repeat(arr, n_angles) if form == "per_row" else np.tile(arr, n_rows)
-        keys = [str(x) for x in value]
-        if any(x in ("per_row", "per_angle") for x in keys):
-            raise ConfigError("expected exactly one of 'per_row' or 'per_angle'", file=path,
-                              key=key)
-        unknown = [x for x in keys if x not in labels]
-        if unknown:
-            close = difflib.get_close_matches(unknown[0], list(labels) + ["per_row", "per_angle"],
-                                              n=1, cutoff=0.5)
-            hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ConfigError(f"unknown element label {unknown[0]!r}{hint} (expected labels "
-                              f"{labels[0]}..{labels[-1]}, 'per_row' or 'per_angle')",
-                              file=path, key=f"{key}.{unknown[0]}")
-        missing = [lab for lab in labels if lab not in keys]
-        if missing:
-            raise ConfigError(f"a mapping by element label must cover every element; missing "
-                              f"{', '.join(missing)}", file=path, key=key)
-        vals = {str(k2): v for k2, v in value.items()}
-        arr = numbers([vals[lab] for lab in labels], key)
-        return check(arr)
-    if isinstance(value, list):
-        if len(value) != n_rows or not all(isinstance(r, list) and len(r) == n_angles
-                                           for r in value):
-            raise ConfigError(f"a nested list must be {shape_txt}", file=path, key=key)
-        flat = []
-        for i, r in enumerate(value):
-            flat.extend(numbers(r, f"{key}[{i}]"))
-        return check(flat)
-    raise ConfigTypeError(f"expected a number, {{per_row: [...]}}, {{per_angle: [...]}}, a "
-                          f"{shape_txt} list, a label mapping or a CSV path, got {value!r}",
-                          file=path, key=key)
 
 
 def _per_row(value, n_rows, path, key) -> np.ndarray:
@@ -422,10 +298,14 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     if not isinstance(data, dict):
         raise ConfigError(f"expected a mapping at the top level (name, geometry, tissue, cuff, "
                           f"...), got {type(data).__name__}", file=path)
+    # the tissue law's parameters are keys of the tissue section too: taken out here by the
+    # law the section names, the rest validated strictly (a misspelt key is still refused)
+    original = data
+    data, law_values, law_keys = _split_law_parameters(data, path)
     try:
         root = _Root.model_validate(data)
     except ValidationError as exc:
-        raise _pydantic_to_config_error(exc, path) from None
+        raise _pydantic_to_config_error(exc, path, {"tissue": law_keys}) from None
 
     g = root.geometry
     row_labels = tuple(str(k) for k in g.rows)
@@ -450,6 +330,11 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     if n_ang * width > 360.0 + 1e-9:
         raise ConfigError(f"{n_ang} elements of {width} deg span more than 360 deg", file=path,
                           key="geometry.angles")
+    # before the labels and per-element arrays exist: a count of a billion must end in one
+    # line, not in the out-of-memory killer
+    from ..workflows.memory_budget import check_elements
+
+    check_elements(n_rows, n_ang, path=path)
     labels = _label_list(row_labels, n_ang)
     base = Path(base_dir) if base_dir is not None else (Path(path).parent if path else Path("."))
 
@@ -499,6 +384,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         raise ConfigError(f"expected a finite axial position [m], got {st.axial_position!r}",
                           file=path, key="strap.axial_position")
 
+    law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
+                                           labels, path)
     cont = root.tissue.continuum
     surface = None
     if cont is not None and cont.surface_stiffness is not None:
@@ -521,13 +408,49 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         strap_model=st.model,
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
         strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
-        raw=data, stiffness_files=stiffness_files + ((surface,) if surface else ()),
+        raw=original, stiffness_files=stiffness_files + ((surface,) if surface else ()),
         continuum_thickness=None if cont is None else float(cont.thickness),
         continuum_young_modulus=None if cont is None or cont.young_modulus is None
         else float(cont.young_modulus),
         continuum_surface_stiffness=surface,
         continuum_spread="mean" if cont is None else cont.spread,
+        tissue_law=law, tissue_law_class=law_cls, tissue_law_parameters=law_params,
     )
+
+
+def _split_law_parameters(data: dict, path):
+    """(data without the tissue law's parameter keys, those keys' values, the law's keys)."""
+    from ..physics.tissue_laws import TISSUE_LAWS
+
+    tissue = data.get("tissue")
+    if not isinstance(tissue, dict) or not isinstance(tissue.get("law", "linear"), str):
+        return data, {}, []
+    law = tissue.get("law", "linear")
+    if law not in TISSUE_LAWS:  # before its parameters are taken for unknown keys
+        close = difflib.get_close_matches(law, list(TISSUE_LAWS), n=1, cutoff=0.5)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ConfigError(f"unknown tissue law {law!r}{hint} (expected one of "
+                          f"{', '.join(sorted(TISSUE_LAWS))})", file=path, key="tissue.law")
+    keys = [p.key for p in TISSUE_LAWS[law].parameters]
+    values = {k: v for k, v in tissue.items() if k in keys}
+    if not values:
+        return data, {}, keys
+    rest = {k: v for k, v in tissue.items() if k not in values}
+    return {**data, "tissue": rest}, values, keys
+
+
+def _tissue_law(law, values, n_rows, n_angles, labels, path):
+    """(law name, law class, its parameters as (n,) arrays in their units)."""
+    from ..physics.tissue_laws import TISSUE_LAWS
+
+    params = {p.key: p for p in TISSUE_LAWS[law].parameters}
+    out = {}
+    for key, value in values.items():
+        p = params[key]
+        out[key] = resolve_stiffness(value, n_rows, n_angles, labels, path=path,
+                                     key=f"tissue.{key}", minimum=p.minimum, unit=p.unit,
+                                     what=key.replace("_", " "))
+    return law, TISSUE_LAWS[law], out
 
 
 def load_config(path) -> Config:

@@ -8,8 +8,9 @@ import numpy as np
 
 from .geometry import CuffGeometry, element_jacobians
 from .preload import strap_preload
-from .springs import (LinearContact, element_stiffness, indenter_to_element,
-                      shear_ratio_from_poisson, shear_stiffness_matrix)
+from .springs import (element_stiffness, indenter_to_element, shear_ratio_from_poisson,
+                      shear_stiffness_matrix)
+from .tissue_laws import LinearLaw, SeriesElement, TissueLaw, make_law
 
 __all__ = ["SpringModel", "build_model", "tissue_element_stiffness", "field_table"]
 
@@ -36,6 +37,12 @@ class OnGeometry:
     @property
     def areas(self) -> np.ndarray:
         return self.geometry.areas
+
+    @property
+    def is_linear(self) -> bool:
+        """Whether the model is linear for a fixed contact set (the active-set kernel alone
+        solves it); a model with a nonlinear law overrides it."""
+        return True
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,6 +88,10 @@ class SpringModel(OnGeometry):
         max_e |delta0_e| [m] (derived).
     inv_area_kpa : ndarray, shape (n,)
         1 / (1000 A_e) [1/(kPa*m^2) = 1/(1000 N)]: force [N] times it is pressure [kPa] (derived).
+    element : SeriesElement
+        Each element's normal law: the tissue law in series with its cuff spring
+        (the cuff spring alone for the rigid arm); k above is its stiffness at small
+        compression. Default: the linear spring k (docs/model.md section 11).
     """
 
     geometry: CuffGeometry
@@ -100,6 +111,7 @@ class SpringModel(OnGeometry):
     b_absmax: np.ndarray = field(init=False, repr=False, metadata=_unit("[-, m]", "derived"))
     delta0_absmax: float = field(init=False, repr=False, metadata=_unit("m", "derived"))
     inv_area_kpa: np.ndarray = field(init=False, repr=False, metadata=_unit("1/(1000 N)", "derived"))
+    element: SeriesElement | None = field(default=None, repr=False)
 
     def __post_init__(self):
         b = self.geometry.b
@@ -113,11 +125,25 @@ class SpringModel(OnGeometry):
         }
         for name, value in derived.items():
             object.__setattr__(self, name, value)
-
+        if self.element is None:
+            object.__setattr__(self, "element", SeriesElement(LinearLaw(self.k), np.inf))
 
     @property
-    def law(self) -> LinearContact:
-        return LinearContact(self.k)
+    def law(self) -> TissueLaw | None:
+        """The tissue law (None for the rigid arm: no tissue)."""
+        return self.element.law
+
+    @property
+    def is_linear(self) -> bool:
+        """True when every element is a linear spring (the exact active-set path solves it)."""
+        return self.element.is_linear
+
+    def contact_system(self, cache=None):
+        """The active-set kernel's system of the linear model with stiffness k (docs/model.md
+        section 9); a nonlinear law is then solved from its answer (section 11)."""
+        from .solver import SpringSystem
+
+        return SpringSystem(self, cache)
 
     def shear_forces(self, u) -> np.ndarray:
         """Shear force on the arm s_e = k_s,e (I3 - n_e n_e^T) B_e u [N], shape (..., n, 3).
@@ -143,9 +169,11 @@ class SpringModel(OnGeometry):
 
         ``contact`` (n,) bool overrides the contact set read off u.
         """
+        g = self.delta0 + self.b @ np.asarray(u, dtype=float)
         if contact is None:
-            contact = (self.delta0 + self.b @ np.asarray(u, dtype=float)) > 0
-        kS = self.k * np.asarray(contact, dtype=bool)
+            contact = g > 0
+        k = self.k if self.is_linear else self.element.tangent(np.maximum(g, 0.0))
+        kS = k * np.asarray(contact, dtype=bool)
         return self.K_s + (self.b.T * kS) @ self.b
 
 
@@ -177,7 +205,8 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
                 shear_ratio: float | None = None, poisson_ratio: float = 0.45,
                 strap_tension: float = 15.0, strap_model: str = "hoop",
                 handle_angles_deg=None, handle_axial_position: float | None = None,
-                pain_threshold_kpa: float = 120.0) -> SpringModel:
+                pain_threshold_kpa: float = 120.0, law="linear",
+                law_parameters: dict | None = None) -> SpringModel:
     """Assemble the spring network of docs/model.md sections 2 and 3.
 
     Parameters
@@ -201,6 +230,12 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
         Handles' axial position [m]; default the mean row position.
     pain_threshold_kpa : float
         Pressure pain threshold [kPa].
+    law : str or TissueLaw subclass
+        Tissue law of the compliant arm, a name of
+        :data:`~phri_spring.physics.tissue_laws.TISSUE_LAWS` or the class, with k_tissue its
+        stiffness at small compression; the rigid arm has no tissue.
+    law_parameters : dict, optional
+        The law's parameters (name -> number or (n,) array, in their units).
 
     Raises
     ------
@@ -231,8 +266,13 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
 
     f0, W_handles = strap_preload(geometry, strap_tension, strap_model, handle_angles_deg,
                                   handle_axial_position)
+    if arm == "rigid":
+        element = SeriesElement(None, k_c)
+    else:
+        element = SeriesElement(make_law(law, k_t, **(law_parameters or {})), k_c)
     if W_handles is None:  # hoop: u = 0 at zero load
-        delta0 = f0 / k
+        # each element carries f0_e: the compression of its series element at f0_e
+        delta0 = f0 / k if element.is_linear else element.compression_at(f0)
         W_pre = f0 @ geometry.b
     else:
         delta0 = np.zeros(n)
@@ -240,4 +280,4 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
 
     return SpringModel(geometry=geometry, arm=arm, k=k, k_shear=k_s, K_s=K_s, delta0=delta0,
                        f0=f0, W_pre=W_pre, strap_model=strap_model,
-                       pain_threshold_kpa=float(pain_threshold_kpa))
+                       pain_threshold_kpa=float(pain_threshold_kpa), element=element)

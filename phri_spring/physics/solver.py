@@ -294,11 +294,19 @@ class SpringSystem(ContactSystem):
 
 
 def make_system(model, cache: FactorCache | None = None) -> ContactSystem:
-    """The kernel's system for a model (spring or coupled), with an optional factor cache."""
-    system_of = getattr(model, "contact_system", None)
-    if system_of is not None:
-        return system_of(cache)
-    return SpringSystem(model, cache)
+    """The kernel's system for a model (any arm model: ``model.contact_system``)."""
+    return model.contact_system(cache)
+
+
+def _nonlinear_finish(model, r, u, its, conv, max_iterations):
+    """For a spring model with a nonlinear law: Newton from the linear model's answer u, in
+    place (docs/model.md section 11); returns the compression g (m, n)."""
+    from .spring_newton import solve_newton
+
+    u[:], itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations)
+    its += itn
+    conv &= conv_n
+    return model.delta0 + u @ model.bT
 
 
 # --------------------------------------------------------------------------- batch solver
@@ -361,6 +369,7 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
         raise ValueError("max_iterations: expected >= 1")
     max_iterations = int(max_iterations)
     system = make_system(model, cache)
+    linear = model.is_linear
     m, n = len(W), system.n
     with np.errstate(over="ignore", invalid="ignore"):
         r = W + model.W_pre
@@ -396,11 +405,16 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
             else:
                 S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
                 ub, qb, _, itb, cb = iterate(system, rb, S0, max_iterations, q_out=qb)
+            if not linear:
+                qb[:] = _nonlinear_finish(model, rb, ub, itb, cb, max_iterations)
             u[s:e], its[s:e], conv[s:e] = ub, itb, cb
             # the settled set, read off the indicator before it becomes the forces in place
             np.greater(qb, 0.0, out=contact[s:e])
             carry = contact[e - 1]
-            system.forces(qb, out=qb, u=ub)
+            if linear:
+                system.forces(qb, out=qb, u=ub)
+            else:
+                qb[:] = model.element.force(qb)
             # a displacement beyond _HUGE (or not finite) comes from an absurd input and is
             # not an answer: its forces and pressures overflow (one cheap test first)
             if not (ub.max() <= _HUGE and ub.min() >= -_HUGE):
@@ -437,8 +451,13 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     for i in range(m):
         ui, qi, _, it_i, ok = iterate(system, W[i:i + 1] + model.W_pre, full, max_iterations)
         u[i], q[i], its[i], conv[i] = ui[0], qi[0], it_i[0], ok[0]
-    contact = (q > 0) & conv[:, None]
-    forces = system.forces(q, u=u)
+    if model.is_linear:
+        contact = (q > 0) & conv[:, None]
+        forces = system.forces(q, u=u)
+    else:
+        q = _nonlinear_finish(model, W + model.W_pre, u, its, conv, max_iterations)
+        contact = (q > 0) & conv[:, None]
+        forces = model.element.force(q)
     forces[~conv] = np.nan
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
 
@@ -497,6 +516,9 @@ class Solver:
                 u, q, _, its, conv = iterate(self._system, r[None], self._S,
                                                 self.max_iterations, keys=self._keys)
                 ok = bool(conv[0]) and bool(np.abs(u).max() <= _HUGE)
+        if not self.model.is_linear:
+            q = _nonlinear_finish(self.model, r[None], u, its, conv, self.max_iterations)
+            ok = ok and bool(conv[0])
         self.last_iterations, self.last_converged = int(its[0]), ok
         # the next call starts from the set read off this indicator; its key must be that
         # set's own (the kernel's keys name the set it last solved with, which can differ
@@ -518,7 +540,10 @@ class Solver:
         NaN everywhere if the solver did not converge (see ``last_converged``).
         """
         u = self.displacement(wrench)
-        f = self._system.forces(self._q, u=u[None])[0]
+        if self.model.is_linear:
+            f = self._system.forces(self._q, u=u[None])[0]
+        else:
+            f = self.model.element.force(self._q)[0]
         if not self.last_converged:
             f[:] = np.nan
         return f

@@ -1,20 +1,16 @@
 """Springs of the interface (docs/model.md section 2).
 
 Series chain per element: bone - tissue spring - skin - cuff spring - rigid
-robot, plus a bonded tangential (shear) spring. The contact law of the normal
-spring sits behind a small interface (:class:`ContactLaw`) so that nonlinear
-tissue laws can be added without touching the solver's callers.
+robot, plus a bonded tangential (shear) spring. The tissue spring's law is a
+plug-in (:mod:`phri_spring.physics.tissue_laws`); these are the linear springs.
 """
 
 from __future__ import annotations
 
-from typing import Protocol
-
 import numpy as np
 
 __all__ = ["indenter_to_element", "series_stiffness", "element_stiffness",
-           "shear_ratio_from_poisson", "shear_stiffness_matrix", "ContactLaw",
-           "LinearContact"]
+           "shear_ratio_from_poisson", "shear_stiffness_matrix"]
 
 
 def indenter_to_element(k_indenter, area, indenter_diameter: float = 0.009) -> np.ndarray:
@@ -113,40 +109,3 @@ def shear_stiffness_matrix(k_shear, B, normals) -> np.ndarray:
     P = np.eye(3)[None] - normals[:, :, None] * normals[:, None, :]
     PB = P @ B
     return np.einsum("e,eij,eik->jk", np.asarray(k_shear, dtype=float), B, PB)
-
-
-class ContactLaw(Protocol):
-    """A compression-only normal contact law per element.
-
-    ``g`` is the compression delta0_e + b_e . u [m], any shape (..., n).
-    """
-
-    is_linear: bool
-
-    def force(self, g: np.ndarray) -> np.ndarray:
-        """Normal force [N] (zero where g <= 0)."""
-
-    def tangent(self, g: np.ndarray) -> np.ndarray:
-        """d force / d g [N/m]."""
-
-    def energy(self, g: np.ndarray) -> np.ndarray:
-        """Stored energy [J]."""
-
-
-class LinearContact:
-    """Linear compression-only spring: f = k [g]_+ (docs/model.md section 2)."""
-
-    is_linear = True
-
-    def __init__(self, k):
-        self.k = np.asarray(k, dtype=float)
-
-    def force(self, g):
-        return self.k * np.maximum(g, 0.0)
-
-    def tangent(self, g):
-        return np.where(g > 0.0, self.k, 0.0)
-
-    def energy(self, g):
-        gp = np.maximum(g, 0.0)
-        return 0.5 * self.k * gp * gp

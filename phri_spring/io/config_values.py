@@ -1,0 +1,163 @@
+"""Value forms of per-element config values (stiffness maps, tissue-law parameters).
+
+A value is a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested rows x
+angles list, a mapping label -> value, or (stiffness only) the path of a CSV written by
+``phri fit-stiffness`` (docs/model.md section 6).
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..errors import ConfigError, ConfigTypeError, DataError
+
+__all__ = ["resolve_stiffness"]
+
+
+def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = False) -> np.ndarray:
+    import pandas as pd
+
+    if not csv_path.is_file():
+        raise ConfigError(f"stiffness file {str(csv_path)!r} not found (paths are relative to the "
+                          "config's folder)", file=path, key=key)
+    import io
+
+    from .textio import read_text
+
+    text = read_text(csv_path, what="a stiffness CSV")
+    try:
+        df = pd.read_csv(io.StringIO(text), comment="#",
+                         dtype={"stiffness_N_per_m": str})  # raw text, for messages
+    except Exception as exc:  # noqa: BLE001 - any parser failure is bad data
+        msg = str(exc).replace("\n", " ")
+        raise DataError(f"cannot read as CSV ({msg})", file=csv_path) from None
+    for col in ("location", "stiffness_N_per_m"):
+        if col not in df.columns:
+            raise DataError(f"missing column {col!r}; expected a CSV written by "
+                            "'phri fit-stiffness'", file=csv_path, key=col)
+    values = pd.to_numeric(df["stiffness_N_per_m"], errors="coerce").astype(float)
+    locs = df["location"].astype(str).str.strip()
+    mapping = {}
+    for loc, v, raw in zip(locs, values, df["stiffness_N_per_m"]):
+        if loc in mapping:
+            raise DataError(f"location {loc!r} appears twice", file=csv_path, key="location")
+        too_big = math.isinf(v) and str(raw).strip().lower().lstrip("+") not in (
+            "inf", "infinity", ".inf")   # e.g. 1e999: a typo, not a rigid element
+        if too_big or not (isinstance(v, float) and v > 0 and (math.isfinite(v) or allow_inf)):
+            what = "a positive stiffness (inf allowed)" if allow_inf else \
+                "a positive finite stiffness"
+            raise DataError(f"location {loc}: expected {what}, got {raw!r}",
+                            file=csv_path, key="stiffness_N_per_m")
+        mapping[loc] = float(v)
+    missing = [lab for lab in labels if lab not in mapping]
+    extra = [loc for loc in mapping if loc not in labels]
+    if missing or extra:
+        parts = []
+        if missing:
+            parts.append(f"missing locations {', '.join(missing)}")
+        if extra:
+            parts.append(f"locations not in the config's geometry {', '.join(extra)}")
+        raise DataError("; ".join(parts) + f" (the geometry has {len(labels)} elements "
+                        f"{labels[0]}..{labels[-1]})", file=csv_path, key="location")
+    return np.array([mapping[lab] for lab in labels])
+
+
+def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, key="",
+                      allow_inf: bool = False, base_dir: Optional[Path] = None,
+                      minimum: Optional[float] = None, unit: str = "N/m",
+                      what: str = "stiffness") -> np.ndarray:
+    """Turn any stiffness value form of docs/model.md section 6 into an (n,) array [N/m], row-major.
+
+    Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
+    rows x angles list, a mapping label -> value covering every element, or a
+    path (relative to ``base_dir``) to a CSV written by ``phri fit-stiffness``.
+    With ``minimum`` (a tissue law's parameter, in ``unit``): finite values >=
+    ``minimum`` instead of positive ones, and no CSV form.
+    """
+    n = n_rows * n_angles
+    shape_txt = f"{n_rows} rows x {n_angles} angles"
+
+    def check(arr, k=key):
+        arr = np.asarray(arr, dtype=float)
+        if minimum is None:
+            bad = ~(arr > 0) | (np.isinf(arr) & (not allow_inf)) | np.isnan(arr)
+            want = (f"a positive {what} (.inf allowed)" if allow_inf else
+                    f"a positive finite {what}")
+        else:
+            bad = ~(np.isfinite(arr) & (arr >= minimum))
+            want = f"a finite {what} >= {minimum:g}"
+        if bad.any():
+            i = int(np.argmax(bad.ravel()))
+            lab = f" at {labels[i]}" if arr.size == n else ""
+            raise ConfigError(f"expected {want} [{unit}]{lab}, got {float(arr.ravel()[i])!r}",
+                              file=path, key=k)
+        return arr
+
+    def numbers(seq, k):
+        out = []
+        for i, v in enumerate(seq):
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ConfigTypeError(f"item {i}: expected a number [{unit}], got {v!r}",
+                                      file=path, key=k)
+            out.append(float(v))
+        return out
+
+    if isinstance(value, bool):
+        raise ConfigTypeError(f"expected a {what} [{unit}], got {value!r}", file=path, key=key)
+    if isinstance(value, (int, float)):
+        return np.full(n, float(check(float(value))))
+    if isinstance(value, str) and minimum is not None:
+        raise ConfigTypeError(f"expected a number, {{per_row: [...]}}, {{per_angle: [...]}}, a "
+                              f"{shape_txt} list or a label mapping [{unit}], got {value!r}",
+                              file=path, key=key)
+    if isinstance(value, str):
+        base = base_dir if base_dir is not None else Path(".")
+        csv_path = Path(value) if Path(value).is_absolute() else base / value
+        return check(_read_stiffness_csv(csv_path, labels, path, key, allow_inf))
+    if isinstance(value, dict):
+        if set(value) in ({"per_row"}, {"per_angle"}):
+            (form, seq), = value.items()
+            want = n_rows if form == "per_row" else n_angles
+            k = f"{key}.{form}"
+            if not isinstance(seq, list) or len(seq) != want:
+                got = len(seq) if isinstance(seq, list) else repr(seq)
+                raise ConfigError(f"expected a list of {want} values (one per "
+                                  f"{'row' if form == 'per_row' else 'angle'}), got {got}",
+                                  file=path, key=k)
+            arr = check(numbers(seq, k), k)
+            return np.repeat(arr, n_angles) if form == "per_row" else np.tile(arr, n_rows)
+        keys = [str(x) for x in value]
+        if any(x in ("per_row", "per_angle") for x in keys):
+            raise ConfigError("expected exactly one of 'per_row' or 'per_angle'", file=path,
+                              key=key)
+        unknown = [x for x in keys if x not in labels]
+        if unknown:
+            close = difflib.get_close_matches(unknown[0], list(labels) + ["per_row", "per_angle"],
+                                              n=1, cutoff=0.5)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ConfigError(f"unknown element label {unknown[0]!r}{hint} (expected labels "
+                              f"{labels[0]}..{labels[-1]}, 'per_row' or 'per_angle')",
+                              file=path, key=f"{key}.{unknown[0]}")
+        missing = [lab for lab in labels if lab not in keys]
+        if missing:
+            raise ConfigError(f"a mapping by element label must cover every element; missing "
+                              f"{', '.join(missing)}", file=path, key=key)
+        vals = {str(k2): v for k2, v in value.items()}
+        arr = numbers([vals[lab] for lab in labels], key)
+        return check(arr)
+    if isinstance(value, list):
+        if len(value) != n_rows or not all(isinstance(r, list) and len(r) == n_angles
+                                           for r in value):
+            raise ConfigError(f"a nested list must be {shape_txt}", file=path, key=key)
+        flat = []
+        for i, r in enumerate(value):
+            flat.extend(numbers(r, f"{key}[{i}]"))
+        return check(flat)
+    raise ConfigTypeError(f"expected a number, {{per_row: [...]}}, {{per_angle: [...]}}, a "
+                          f"{shape_txt} list, a label mapping or a CSV path, got {value!r}",
+                          file=path, key=key)
