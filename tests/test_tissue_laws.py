@@ -247,3 +247,34 @@ def test_a_law_must_declare_units():
 
     with pytest.raises(TypeError, match="unit"):
         register_law(NoUnit)
+
+
+def test_the_docs_example_law_runs(tmp_path):
+    """docs/model.md section 11.2's example law, executed as written, runs through simulate
+    with the docs' config keys and equals the toy law of this file with the same rate."""
+    import re
+
+    from conftest import REPO
+
+    text = (REPO / "docs" / "model.md").read_text()
+    section = text[text.index("### 11.2 Adding a tissue law"):]
+    code = re.findall(r"```python\n(.*?)```", section, flags=re.S)[0]
+    keys = yaml.safe_load(re.findall(r"```yaml\n(.*?)```", section, flags=re.S)[0])["tissue"]
+    try:
+        exec(compile(code, "docs/model.md", "exec"), {})  # noqa: S102 - our own docs
+        data = yaml.safe_load(HARMONY_CONFIG.read_text())
+        data["tissue"].update({k: v for k, v in keys.items() if k != "stiffness"})
+        path = tmp_path / "docs_law.yaml"
+        path.write_text(yaml.safe_dump(data))
+        out = tmp_path / "f.csv"
+        res = run_phri("simulate", path, "examples/wrench_log.csv", "-o", out, "-q")
+        assert res.exit_code == 0, stderr_of(res)
+        data["tissue"]["law"] = "toy_quadratic"
+        data["tissue"]["toy_rate"] = data["tissue"].pop("quadratic_rate")
+        path.write_text(yaml.safe_dump(data))
+        res = run_phri("simulate", path, "examples/wrench_log.csv", "-o", tmp_path / "g.csv", "-q")
+        assert res.exit_code == 0, stderr_of(res)
+        a, b = pd.read_csv(out), pd.read_csv(tmp_path / "g.csv")
+        pd.testing.assert_frame_equal(a, b)
+    finally:
+        TISSUE_LAWS.pop("quadratic", None)
