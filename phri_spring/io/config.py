@@ -266,6 +266,9 @@ class Config:
     raw: dict = field(default_factory=dict, repr=False)
     #: stiffness CSV files the config reads (inputs: never to be written over)
     stiffness_files: tuple = ()
+    #: the 'phri fit-stiffness' CSV tissue_stiffness came from, if any (its SDs are the
+    #: stiffness scatter of a Monte Carlo with tissue=from_csv)
+    tissue_stiffness_csv: Optional[Path] = None
 
     @property
     def n_rows(self) -> int:
@@ -342,9 +345,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                             key="tissue.stiffness", allow_inf=False, base_dir=base)
     k_c = resolve_stiffness(root.cuff.stiffness, n_rows, n_ang, labels, path=path,
                             key="cuff.stiffness", allow_inf=True, base_dir=base)
-    stiffness_files = tuple(
-        Path(v) if Path(v).is_absolute() else base / v
-        for v in (root.tissue.stiffness, root.cuff.stiffness) if isinstance(v, str))
+    stiffness_files = tuple(_csv_path(v, base) for v in (root.tissue.stiffness, root.cuff.stiffness)
+                            if isinstance(v, str))
 
     lc = root.load_cell
     from ..physics.loadcell import convention_sign, rotation_from_euler_xyz
@@ -409,6 +411,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
         strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
         raw=original, stiffness_files=stiffness_files + ((surface,) if surface else ()),
+        tissue_stiffness_csv=_csv_path(root.tissue.stiffness, base),
         continuum_thickness=None if cont is None else float(cont.thickness),
         continuum_young_modulus=None if cont is None or cont.young_modulus is None
         else float(cont.young_modulus),
@@ -416,6 +419,13 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         continuum_spread="mean" if cont is None else cont.spread,
         tissue_law=law, tissue_law_class=law_cls, tissue_law_parameters=law_params,
     )
+
+
+def _csv_path(value, base: Path) -> Optional[Path]:
+    """The CSV file a stiffness value names, resolved against the config's folder."""
+    if not isinstance(value, str):
+        return None
+    return Path(value) if Path(value).is_absolute() else base / value
 
 
 def _split_law_parameters(data: dict, path):

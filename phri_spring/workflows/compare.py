@@ -174,7 +174,8 @@ def _with_tissue(cfg: Config, tissue_stiffness) -> Config:
                         "'phri fit-stiffness'", file=path, key="--tissue-stiffness")
     k = resolve_stiffness(str(path.resolve()), cfg.n_rows, cfg.angle_count, cfg.labels,
                           path=path, key="--tissue-stiffness", allow_inf=False)
-    return dataclasses.replace(cfg, tissue_stiffness=k, tissue_basis="indenter")
+    return dataclasses.replace(cfg, tissue_stiffness=k, tissue_basis="indenter",
+                               tissue_stiffness_csv=Path(path))
 
 
 def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT_ARMS,

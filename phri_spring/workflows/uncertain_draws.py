@@ -76,14 +76,9 @@ class UncertainInputs:
 def _csv_std(cfg: Config, csv_path=None) -> Optional[np.ndarray]:
     import pandas as pd
 
-    if csv_path is not None:
-        path = Path(csv_path)
-    else:
-        raw = cfg.raw.get("tissue", {}).get("stiffness") if isinstance(cfg.raw, dict) else None
-        if not isinstance(raw, str):
-            return None
-        base = cfg.path.parent if cfg.path is not None else Path(".")
-        path = Path(raw) if Path(raw).is_absolute() else base / raw
+    path = Path(csv_path) if csv_path is not None else cfg.tissue_stiffness_csv
+    if path is None:
+        return None
     df = pd.read_csv(path, comment="#")
     if "std_N_per_m" not in df.columns:
         raise DataError("missing column 'std_N_per_m'; expected a CSV written by 'phri "

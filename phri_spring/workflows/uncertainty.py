@@ -512,7 +512,7 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
     cfg = result.config
     kw = parse_sd(sd)
     kw["force_sd_N"] = kw["moment_sd_Nm"] = 0.0
-    inputs = uncertain_inputs(cfg, tissue_csv=result.tissue_stiffness_file, **kw)
+    inputs = uncertain_inputs(cfg, **kw)
     cfgs = draw_configs(cfg, inputs, int(draws), seed)
     check_fe_cache(cfg, inputs, result.arms)
     W = np.vstack([tc.cuff_wrench for tc in result.trials])
