@@ -376,9 +376,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                           file=path, key=f"load_cell.columns.{unknown_cols[0]}")
 
     st = root.strap
-    for k in ("tension",):
-        if not math.isfinite(getattr(st, k)):
-            raise ConfigError("expected a finite tension [N]", file=path, key="strap.tension")
+    if not math.isfinite(st.tension):
+        raise ConfigError("expected a finite tension [N]", file=path, key="strap.tension")
     if st.handle_angles is not None and not all(math.isfinite(a) for a in st.handle_angles):
         raise ConfigError(f"expected two finite angles [deg], got {list(st.handle_angles)}",
                           file=path, key="strap.handle_angles")

@@ -35,7 +35,7 @@ from ..errors import ConfigError, ConfigTypeError, DataError
 from .config import LOG_COLUMNS, LOG_GROUP_KEY, load_yaml
 
 __all__ = ["TrialSpec", "Manifest", "TrialData", "load_manifest", "read_trial",
-           "read_experiment", "WRENCH_COLUMNS", "DEFAULT_BASELINE"]
+           "WRENCH_COLUMNS", "DEFAULT_BASELINE"]
 
 #: the wrench columns of a trial table, as the load cell reads them
 WRENCH_COLUMNS = LOG_COLUMNS[1:]
@@ -405,12 +405,3 @@ def read_trial(spec: Union[TrialSpec, str, Path], labels, *, baseline: Optional[
     return TrialData(spec=spec, conditions=tuple(order), wrench=w_mean, loads=l_mean,
                      n_samples=counts, time=values["time"], wrench_series=wrench,
                      condition_series=cond)
-
-
-def read_experiment(manifest: Union[Manifest, str, Path], labels, *,
-                    columns: Optional[dict] = None, row_labels=()) -> list:
-    """Read every trial of a manifest (see :func:`read_trial`)."""
-    if not isinstance(manifest, Manifest):
-        manifest = load_manifest(manifest)
-    return [read_trial(t, labels, columns=columns, row_labels=row_labels)
-            for t in manifest.trials]

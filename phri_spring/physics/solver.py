@@ -30,7 +30,7 @@ from .active_set import (PLAIN_ITERATIONS, SET_RTOL, ContactSystem, FactorCache,
 from .model import SpringModel
 
 __all__ = ["Solution", "solve", "solve_per_sample", "Solver", "SpringSystem", "FactorCache",
-           "compression", "normal_forces", "shear_forces", "energy", "equilibrium_residual",
+           "compression", "normal_forces", "shear_forces", "energy",
            "PLAIN_ITERATIONS", "make_system"]
 
 #: samples per internal block (bounds the (samples x elements) temporaries)
@@ -88,7 +88,10 @@ def forces_from_compression(model: SpringModel, g, out=None) -> np.ndarray:
 
 
 def normal_forces(model: SpringModel, u) -> np.ndarray:
-    """f_e = k_e [delta0_e + b_e . u]_+ [N], shape (..., n)."""
+    """f_e = k_e [delta0_e + b_e . u]_+ [N] (the element law's force for a nonlinear law),
+    shape (..., n)."""
+    if not model.is_linear:
+        return model.element.force(compression(model, u))
     return forces_from_compression(model, compression(model, u))
 
 
@@ -100,17 +103,16 @@ def shear_forces(model: SpringModel, u) -> np.ndarray:
 def energy(model: SpringModel, u, wrench) -> np.ndarray:
     """Pi(u) [J] for displacement(s) u and applied wrench(es) W."""
     u = np.asarray(u, dtype=float)
-    gp = np.maximum(compression(model, u), 0.0)
+    g = compression(model, u)
     r = np.asarray(wrench, dtype=float) + model.W_pre
-    return (0.5 * np.sum(model.k * gp * gp, axis=-1)
+    if model.is_linear:
+        gp = np.maximum(g, 0.0)
+        elastic = 0.5 * np.sum(model.k * gp * gp, axis=-1)
+    else:
+        elastic = np.sum(model.element.energy(g), axis=-1)
+    return (elastic
             + 0.5 * np.einsum("...i,ij,...j->...", u, model.K_s, u)
             - np.sum(r * u, axis=-1))
-
-
-def equilibrium_residual(model: SpringModel, u, wrench) -> np.ndarray:
-    """sum_e f_e b_e + K_s u - (W + W_pre), shape (..., 6): zero at equilibrium."""
-    u = np.asarray(u, dtype=float)
-    return normal_forces(model, u) @ model.b + u @ model.K_s.T - (np.asarray(wrench) + model.W_pre)
 
 
 
