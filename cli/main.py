@@ -10,9 +10,9 @@ import importlib
 import os
 
 # Every matrix product phri-spring makes is 6 wide (or a 6x6 solve) over many samples: BLAS
-# threads only add start-up and contention costs there (measured: slower on 2 cores, much
-# slower on a busy machine). One thread each, unless the user chose otherwise; set before
-# numpy is first imported by a command.
+# threads only add start-up and contention costs there (docs/performance.md, "Threads and
+# memory"). One thread each, unless the user chose otherwise; set before numpy is first
+# imported by a command.
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
@@ -22,18 +22,15 @@ def _tune_memory() -> None:
 
     Each chunk of a long log allocates arrays of the same sizes; by default
     glibc maps large ones fresh and unmaps them when freed, and every page is
-    then faulted in again (measured: a third of the run time of `phri
-    simulate` on a one-hour log went to page faults). Blocks up to 32 MB come
-    from the heap instead, and the heap is trimmed only when more than 256 MB
-    are free at its top, so the next chunk reuses the memory while the peak
-    stays bounded.
+    then faulted in again. Blocks up to 32 MB come from the heap instead, and
+    the heap is trimmed only when more than 256 MB are free at its top, so the
+    next chunk reuses the memory while the peak stays bounded.
 
     Transparent huge pages (which numpy and pyarrow's allocator ask for on
-    large blocks) buy nothing here, as the chunk memory is reused, and on the
-    project's virtual machine a huge-page fault is slow and erratic: paired
-    runs with them off took 0.85x the wall time CSV -> CSV (system time
-    halved, the slowest run 1.46 s instead of 1.82 s) and 0.97x Parquet ->
-    Parquet (slowest 0.95 s instead of 1.21 s), with a lower peak memory.
+    large blocks) buy nothing here, as the chunk memory is reused, and a
+    huge-page fault can be slow and erratic on virtual machines. What both
+    settings were measured to save is in docs/performance.md ("Threads and
+    memory").
     """
     import sys
 
