@@ -496,6 +496,7 @@ class Solver:
         self.max_iterations = int(max_iterations)
         self.cache = FactorCache()
         self._system = make_system(model, self.cache)
+        self._linear = model.is_linear
         self._wpre = model.W_pre
         self._S = np.ones((1, self._system.n), dtype=bool)
         self._keys = set_keys(self._S)
@@ -518,15 +519,17 @@ class Solver:
                 u, q, _, its, conv = iterate(self._system, r[None], self._S,
                                                 self.max_iterations, keys=self._keys)
                 ok = bool(conv[0]) and bool(np.abs(u).max() <= _HUGE)
-        if not self.model.is_linear:
+        if not self._linear:
             q = _nonlinear_finish(self.model, r[None], u, its, conv, self.max_iterations)
             ok = ok and bool(conv[0])
         self.last_iterations, self.last_converged = int(its[0]), ok
         # the next call starts from the set read off this indicator; its key must be that
         # set's own (the kernel's keys name the set it last solved with, which can differ
         # from q > 0 at a contact on the boundary, and a key names a cached factorisation)
-        self._S, self._q = q > 0, q
-        self._keys = set_keys(self._S)
+        S = q > 0
+        if (S != self._S).any():   # the usual call keeps its set, and its key
+            self._keys = set_keys(S)
+        self._S, self._q = S, q
         return u[0]
 
     @property
@@ -542,7 +545,7 @@ class Solver:
         NaN everywhere if the solver did not converge (see ``last_converged``).
         """
         u = self.displacement(wrench)
-        if self.model.is_linear:
+        if self._linear:
             f = self._system.forces(self._q, u=u[None])[0]
         else:
             f = self.model.element.force(self._q)[0]
