@@ -1,9 +1,11 @@
 """The tissue's condensed surface stiffness on disk: a build cache and users' own FE exports.
 
-* :func:`load_or_build` returns the built-in FE's K (and its local-normal output N),
-  from a disk cache keyed by everything K depends on, building and caching it when
-  needed. A corrupt or unreadable cache entry is rebuilt; a cache folder that cannot
-  be written is skipped (the matrix is still returned).
+* :func:`load_or_build_operators` returns the built-in FE's K and its local-normal
+  output N (a :class:`~phri_spring.physics.fe_tissue.SurfaceOperators`), from a disk
+  cache keyed by everything K depends on, building and caching them when needed. A
+  corrupt or unreadable cache entry is rebuilt; a cache folder that cannot be written
+  is skipped (the matrices are still returned). :func:`load_or_build` is the same as
+  ``(K, info)`` with N in ``info['N']``.
 * :func:`load_surface_stiffness` reads a user's own FE export (``docs/coupled-fe.md``,
   "Using your own FE"): an ``.npz`` with ``K`` (6n x 6n or 3n x 3n, SI units, the patch
   dof ordering of :func:`phri_spring.physics.fe_tissue.condensed_surface_stiffness`)
@@ -25,8 +27,8 @@ from ..errors import DataError
 from ..physics import fe_tissue
 from .atomic import atomic_file
 
-__all__ = ["CACHE_FORMAT_VERSION", "default_cache_dir", "cache_key", "load_or_build",
-           "load_surface_stiffness", "SYMMETRY_RTOL"]
+__all__ = ["CACHE_FORMAT_VERSION", "default_cache_dir", "cache_key", "load_or_build_operators",
+           "load_or_build", "load_surface_stiffness", "SYMMETRY_RTOL"]
 
 #: bump when the FE or the file layout changes: old cache entries are then ignored
 CACHE_FORMAT_VERSION = 1
@@ -102,11 +104,11 @@ def _write_cache(path: Path, key: str, K1, N1, info) -> str | None:
     return None
 
 
-def load_or_build(geometry, thickness, young_modulus, poisson_ratio, *, cache_dir=None,
-                  level: int = fe_tissue.DEFAULT_LEVEL,
-                  length_factor: float = fe_tissue.DEFAULT_LENGTH_FACTOR,
-                  ends: str = "fixed"):
-    """The built-in FE's condensed surface stiffness, cached on disk.
+def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *,
+                            cache_dir=None, level: int = fe_tissue.DEFAULT_LEVEL,
+                            length_factor: float = fe_tissue.DEFAULT_LENGTH_FACTOR,
+                            ends: str = "fixed") -> fe_tissue.SurfaceOperators:
+    """The built-in FE's condensed surface stiffness and normal-force output, cached on disk.
 
     Parameters
     ----------
@@ -124,13 +126,13 @@ def load_or_build(geometry, thickness, young_modulus, poisson_ratio, *, cache_di
 
     Returns
     -------
-    K : ndarray, shape (6n, 6n)
-        Condensed surface stiffness for this E (SI units, patch-major dofs).
-    info : dict
-        ``N`` (ndarray (n, 6n), the local-normal output for this E), ``source``
-        (``'cache'`` or ``'built'``), ``path`` (the cache file), ``key``, ``seconds``
-        (time spent here), ``cache_error`` (None, or why the cache was not written),
-        and the FE's mesh figures (``level``, ``n_dofs``, ...).
+    SurfaceOperators
+        ``K`` (ndarray (6n, 6n), the condensed surface stiffness for this E, SI units,
+        patch-major dofs), ``N`` (ndarray (n, 6n), the local-normal output for this E
+        [N/m, N/rad]) and ``info``: ``source`` (``'cache'`` or ``'built'``), ``path``
+        (the cache file), ``key``, ``seconds`` (time spent here), ``cache_error`` (None,
+        or why the cache was not written), and the FE's mesh figures (``level``,
+        ``n_dofs``, ...).
 
     Raises
     ------
@@ -140,9 +142,9 @@ def load_or_build(geometry, thickness, young_modulus, poisson_ratio, *, cache_di
         The FE has to be built and scikit-fem (extra ``fe``) is not installed.
     """
     t0 = time.perf_counter()
-    fe_tissue._check_material(thickness=thickness, poisson_ratio=poisson_ratio,
-                              young_modulus=young_modulus,
-                              radius=fe_tissue._single_radius(geometry))
+    fe_tissue.check_material(thickness=thickness, poisson_ratio=poisson_ratio,
+                             young_modulus=young_modulus,
+                             radius=fe_tissue.single_radius(geometry))
     n = geometry.n
     key = cache_key(geometry, thickness, poisson_ratio, level=level,
                     length_factor=length_factor, ends=ends)
@@ -160,8 +162,28 @@ def load_or_build(geometry, thickness, young_modulus, poisson_ratio, *, cache_di
         K1, N1 = ops.K, ops.N
         info = dict(ops.info, source="built")
         info["cache_error"] = _write_cache(path, key, K1, N1, ops.info)
-    info.update(N=N1 * E, path=str(path), key=key, seconds=time.perf_counter() - t0)
-    return K1 * E, info
+    info.update(path=str(path), key=key, seconds=time.perf_counter() - t0)
+    return fe_tissue.SurfaceOperators(K=K1 * E, N=N1 * E, info=info)
+
+
+def load_or_build(geometry, thickness, young_modulus, poisson_ratio, **kwargs):
+    """:func:`load_or_build_operators` as ``(K, info)``, with N in ``info['N']``.
+
+    Parameters
+    ----------
+    geometry, thickness, young_modulus, poisson_ratio, **kwargs
+        As :func:`load_or_build_operators`.
+
+    Returns
+    -------
+    K : ndarray, shape (6n, 6n)
+        Condensed surface stiffness for this E (SI units, patch-major dofs).
+    info : dict
+        The operators' ``info`` and ``N`` (ndarray (n, 6n), the local-normal output for
+        this E [N/m, N/rad]).
+    """
+    ops = load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, **kwargs)
+    return ops.K, dict(ops.info, N=ops.N)
 
 
 def load_surface_stiffness(path, geometry) -> np.ndarray:

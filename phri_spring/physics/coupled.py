@@ -33,18 +33,20 @@ program, by the Lawson-Hanson non-negative least-squares method (finite).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from operator import attrgetter
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve, solve_triangular
 from scipy.optimize import nnls
 
 from .active_set import SET_RTOL, ContactSystem, FactorCache, set_keys
-from .geometry import CuffGeometry
-from .model import OnGeometry
+from .geometry import CuffGeometry, rigid_body_map
+from .model import OnGeometry, field_unit
 from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
 
-__all__ = ["CoupledModel", "CoupledSystem", "build_coupled_model", "patch_frames",
+__all__ = ["CoupledModel", "CoupledSystem", "SetFactors", "build_coupled_model", "patch_frames",
            "rigid_patch_map"]
 
 
@@ -64,19 +66,9 @@ def rigid_patch_map(geometry: CuffGeometry, dofs: int) -> np.ndarray:
     """T (n*dofs, 6): patch e's rigid motion from the cuff displacement u = (t, w).
 
     Translation of the patch centre t + w x p_e, and (dofs = 6) its rotation w,
-    in the cuff frame's axes.
+    in the cuff frame's axes (:func:`~phri_spring.physics.geometry.rigid_body_map`).
     """
-    n = geometry.n
-    T = np.zeros((n, dofs, 6))
-    p = geometry.points
-    T[:, :3, :3] = np.eye(3)
-    # t + w x p = t - p x w: the block -[p]_x
-    T[:, 0, 4], T[:, 0, 5] = p[:, 2], -p[:, 1]
-    T[:, 1, 3], T[:, 1, 5] = -p[:, 2], p[:, 0]
-    T[:, 2, 3], T[:, 2, 4] = p[:, 1], -p[:, 0]
-    if dofs == 6:
-        T[:, 3:, 3:] = np.eye(3)
-    return T.reshape(n * dofs, 6)
+    return rigid_body_map(geometry.points, rotations=dofs == 6).reshape(geometry.n * dofs, 6)
 
 
 def _local_rotation(geometry: CuffGeometry, dofs: int) -> np.ndarray:
@@ -91,9 +83,6 @@ def _local_rotation(geometry: CuffGeometry, dofs: int) -> np.ndarray:
             R[s + 3:s + 6, s + 3:s + 6] = frames[e]
     return R
 
-
-def _unit(unit: str, source: str) -> dict:
-    return {"unit": unit, "source": source}
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,25 +123,29 @@ class CoupledModel(OnGeometry):
 
     geometry: CuffGeometry
     arm: str
-    K_t: np.ndarray = field(metadata=_unit("[[N/m, N/rad], [N*m/m, N*m/rad]]",
+    K_t: np.ndarray = field(metadata=field_unit("[[N/m, N/rad], [N*m/m, N*m/rad]]",
                                            "docs/model.md section 10"))
     dofs: int
-    k_cuff: np.ndarray = field(metadata=_unit("N/m", "docs/model.md section 2"))
-    shear_ratio: float = field(metadata=_unit("-", "docs/model.md section 2"))
-    delta: np.ndarray = field(metadata=_unit("[m, rad]", "docs/model.md section 10"))
-    f0: np.ndarray = field(metadata=_unit("N", "docs/model.md section 3"))
-    W_pre: np.ndarray = field(metadata=_unit("[N, N, N, N*m, N*m, N*m]", "docs/model.md section 3"))
-    T: np.ndarray = field(repr=False, metadata=_unit("[-, m]", "docs/model.md section 10"))
-    C: np.ndarray = field(repr=False, metadata=_unit("[m/N, rad/N; m/(N*m), rad/(N*m)]",
+    k_cuff: np.ndarray = field(metadata=field_unit("N/m", "docs/model.md section 2"))
+    shear_ratio: float = field(metadata=field_unit("-", "docs/model.md section 2"))
+    delta: np.ndarray = field(metadata=field_unit("[m, rad]", "docs/model.md section 10"))
+    f0: np.ndarray = field(metadata=field_unit("N", "docs/model.md section 3"))
+    W_pre: np.ndarray = field(metadata=field_unit("[N, N, N, N*m, N*m, N*m]",
+                                                   "docs/model.md section 3"))
+    T: np.ndarray = field(repr=False, metadata=field_unit("[-, m]", "docs/model.md section 10"))
+    C: np.ndarray = field(repr=False, metadata=field_unit("[m/N, rad/N; m/(N*m), rad/(N*m)]",
                                                      "docs/model.md section 10"))
-    C_t: np.ndarray = field(repr=False, metadata=_unit("[m/N, rad/N; m/(N*m), rad/(N*m)]",
+    C_t: np.ndarray = field(repr=False, metadata=field_unit("[m/N, rad/N; m/(N*m), rad/(N*m)]",
                                                        "docs/model.md section 10"))
     strap_model: str = "hoop"
-    pain_threshold_kpa: float = field(default=120.0, metadata=_unit("kPa", "docs/model.md section 4"))
+    pain_threshold_kpa: float = field(default=120.0,
+                                      metadata=field_unit("kPa", "docs/model.md section 4"))
     N_out: np.ndarray | None = field(default=None, repr=False,
-                                     metadata=_unit("[N/m, N/rad]", "docs/model.md section 10"))
-    inv_area_kpa: np.ndarray = field(init=False, repr=False, metadata=_unit("1/(1000 N)", "derived"))
-    normal_dofs: np.ndarray = field(init=False, repr=False, metadata=_unit("-", "derived"))
+                                     metadata=field_unit("[N/m, N/rad]",
+                                                          "docs/model.md section 10"))
+    inv_area_kpa: np.ndarray = field(init=False, repr=False,
+                                     metadata=field_unit("1/(1000 N)", "derived"))
+    normal_dofs: np.ndarray = field(init=False, repr=False, metadata=field_unit("-", "derived"))
 
     def __post_init__(self):
         object.__setattr__(self, "inv_area_kpa", 1.0 / (1000.0 * self.geometry.areas))
@@ -166,7 +159,7 @@ class CoupledModel(OnGeometry):
         """H_S (6, 6) of the contact set ``contact`` (n,) bool, or of full contact if None."""
         S = np.ones(self.n, dtype=bool) if contact is None else np.asarray(contact, dtype=bool)
         system = self.contact_system(FactorCache(0))
-        Mt, _ = system.factors(set_keys(S[None])[0], S)[:2]
+        Mt = system.factors(set_keys(S[None])[0], S).solve_map
         H = np.linalg.inv(Mt.T)
         return 0.5 * (H + H.T)
 
@@ -181,9 +174,8 @@ class CoupledModel(OnGeometry):
         out = np.zeros((len(u), self.n * self.dofs))
         keys = set_keys(S)
         for key, idx in _groups(keys):
-            data = system.factors(key, S[idx[0]])
-            D, GT, Gd = data[4], data[5], data[6]
-            out[np.ix_(idx, D)] = u[idx] @ GT.T + Gd
+            f = system.factors(key, S[idx[0]])
+            out[np.ix_(idx, f.tied)] = u[idx] @ f.force_map.T + f.force_offset
         return out.reshape(len(u), self.n, self.dofs)
 
     def shear_components(self, u, contact) -> np.ndarray:
@@ -207,13 +199,62 @@ def _groups(keys: np.ndarray):
         yield uniq[j], order[bounds[j]:bounds[j + 1]]
 
 
+class SetFactors(NamedTuple):
+    """What :class:`CoupledSystem` caches per contact set S (m the dofs tied in S).
+
+    Each ``*_map``, ``*_offset`` pair is an affine map of the cuff displacement u (6,)
+    [m, rad], applied to rows of u as ``u @ map + offset``.
+
+    Attributes
+    ----------
+    solve_map : ndarray, shape (6, 6)
+        H_S^-1 transposed: u = (r + solve_offset) @ solve_map solves H_S u = r + c_S
+        [m/N, m/(N*m); rad/N, rad/(N*m)].
+    solve_offset : ndarray, shape (6,)
+        c_S = -T_D^T C_DD^-1 delta_D [N, N*m].
+    indicator_map : ndarray, shape (6, n)
+    indicator_offset : ndarray, shape (n,)
+        The indicator q = u @ indicator_map + indicator_offset: normal force of the
+        patches in S [N], penetration of the others [m].
+    tied : ndarray of int, shape (m,)
+        D, the tied dofs: every dof but the normals of the patches outside S.
+    force_map : ndarray, shape (m, 6)
+        G T_D = C_DD^-1 T_D [N/m, N/rad; N*m/m, N*m/rad].
+    force_offset : ndarray, shape (m,)
+        G delta_D = C_DD^-1 delta_D [N, N*m]; the tied dofs' forces are
+        u @ force_map.T + force_offset.
+    abs_indicator_map : ndarray, shape (6, n)
+    abs_indicator_offset : ndarray, shape (n,)
+        |indicator_map|, |indicator_offset|: the round-off scale of the indicator.
+    report_map : ndarray, shape (6, n)
+    report_offset : ndarray, shape (n,)
+        The reported normal patch forces u @ report_map + report_offset [N] (0 outside S).
+    """
+
+    solve_map: np.ndarray
+    solve_offset: np.ndarray
+    indicator_map: np.ndarray
+    indicator_offset: np.ndarray
+    tied: np.ndarray
+    force_map: np.ndarray
+    force_offset: np.ndarray
+    abs_indicator_map: np.ndarray
+    abs_indicator_offset: np.ndarray
+    report_map: np.ndarray
+    report_offset: np.ndarray
+
+
+#: the (map, offset) pairs of :class:`SetFactors` that :meth:`CoupledSystem._affine` applies
+_AFFINE_PAIRS = {name: attrgetter(f"{name}_map", f"{name}_offset")
+                 for name in ("solve", "indicator", "abs_indicator", "report")}
+
+
 class CoupledSystem(ContactSystem):
     """The coupled model as a :class:`~phri_spring.physics.active_set.ContactSystem`.
 
-    Per contact set S it caches (Mt, c, Qt, q0, D, G T_D, G delta_D, |Qt|, |q0|):
-    u = (r + c) @ Mt, the indicator q = u @ Qt + q0 (normal force of the
-    patches in S, penetration of the others), the tied dofs D and the maps from
-    u to their forces.
+    Per contact set S it caches a :class:`SetFactors`: the solve u = (r + c) @ Mt,
+    the indicator q (normal force of the patches in S, penetration of the others),
+    the tied dofs D and the maps from u to their forces and to the reported forces.
     """
 
     sets_follow_indicator = False
@@ -224,7 +265,8 @@ class CoupledSystem(ContactSystem):
         self.cache = FactorCache() if cache is None else cache
         self._reduced = None
 
-    def factors(self, key, S_row: np.ndarray):
+    def factors(self, key, S_row: np.ndarray) -> SetFactors:
+        """The cached :class:`SetFactors` of contact set ``S_row`` (n,) bool, keyed ``key``."""
         hk = key.item() if isinstance(key, np.generic) else key
         hit = self.cache.get(hk)
         if hit is None:
@@ -261,11 +303,14 @@ class CoupledSystem(ContactSystem):
             NC = m.N_out @ m.C_t[:, D]
             Ft = np.ascontiguousarray((NC @ GT).T) * S_row
             f0 = (NC @ Gd) * S_row
-        return (Mt, c, Qt, q0, D, GT, Gd, np.abs(Qt), np.abs(q0), Ft, f0)
+        return SetFactors(solve_map=Mt, solve_offset=c, indicator_map=Qt, indicator_offset=q0,
+                          tied=D, force_map=GT, force_offset=Gd, abs_indicator_map=np.abs(Qt),
+                          abs_indicator_offset=np.abs(q0), report_map=Ft, report_offset=f0)
 
-    def _affine(self, x, S, keys, slot: int, out=None, add_first: bool = False):
-        """x @ A_S + b_S for every row, with (A_S, b_S) = the set data at ``slot``, ``slot+1``
-        of each row's contact set (``add_first``: (x + b_S) @ A_S instead).
+    def _affine(self, x, S, keys, pair: str, out=None, add_first: bool = False):
+        """x @ A_S + b_S for every row, with (A_S, b_S) the :class:`SetFactors` pair ``pair``
+        (``'solve'``, ``'indicator'``, ``'abs_indicator'`` or ``'report'``: its ``*_map``,
+        ``*_offset``) of each row's contact set (``add_first``: (x + b_S) @ A_S instead).
 
         Rows sharing the block's one set take one product; otherwise the maps of the sets
         met are gathered per row and applied as a stack of small products, in chunks.
@@ -273,15 +318,16 @@ class CoupledSystem(ContactSystem):
         m = len(x)
         if m == 0:
             return np.empty((0, 0)) if out is None else out
+        get = _AFFINE_PAIRS[pair]
         if m == 1 or np.all(keys == keys[0]):
-            A, b = self.factors(keys[0], S[0])[slot:slot + 2]
+            A, b = get(self.factors(keys[0], S[0]))
             if add_first:
                 return np.matmul(x + b, A, out=out)
             res = np.matmul(x, A, out=out)
             res += b
             return res
         uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
-        data = [self.factors(k, S[f])[slot:slot + 2] for k, f in zip(uniq, first)]
+        data = [get(self.factors(k, S[f])) for k, f in zip(uniq, first)]
         A = np.stack([d[0] for d in data])
         b = np.stack([d[1] for d in data])
         res = np.empty((m, A.shape[2])) if out is None else out
@@ -295,15 +341,15 @@ class CoupledSystem(ContactSystem):
         return res
 
     def solve_sets(self, keys, S, r):
-        return self._affine(r, S, keys, 0, add_first=True)
+        return self._affine(r, S, keys, "solve", add_first=True)
 
     def indicator(self, u, S, keys=None, out=None):
         if keys is None:
             keys = set_keys(S)
-        return self._affine(u, S, keys, 2, out=out)
+        return self._affine(u, S, keys, "indicator", out=out)
 
     def consistent(self, S, q, u):
-        tol = self._affine(np.abs(np.atleast_2d(u)), S, set_keys(S), 7)
+        tol = self._affine(np.abs(np.atleast_2d(u)), S, set_keys(S), "abs_indicator")
         tol *= SET_RTOL
         wrong = (S & (q < -tol)) | (~S & (q > tol))
         return ~wrong.any(axis=-1)
@@ -318,7 +364,7 @@ class CoupledSystem(ContactSystem):
         if self.model.N_out is None:
             return np.maximum(q, 0.0, out=out)
         S = q > 0
-        f = self._affine(np.atleast_2d(u), S, set_keys(S), 9)
+        f = self._affine(np.atleast_2d(u), S, set_keys(S), "report")
         return np.maximum(f, 0.0, out=out)
 
     # ------------------------------------------------------------------ safeguard

@@ -2,8 +2,8 @@
 
 The structured, graded mesh of triquadratic hexahedra between the bone (r = R - t)
 and the skin (r = R) in cylindrical coordinates, the skin facets under each cuff
-patch, and the renumbering that ties the angular seam into a closed tube. Split out
-of :mod:`phri_spring.physics.fe_tissue`, which assembles and condenses on this mesh;
+patch, and the renumbering that ties the angular seam into a closed tube, with the
+checks of the FE's inputs. :mod:`phri_spring.physics.fe_assembly` assembles on this mesh;
 see ``docs/coupled-fe.md``, "The mesh", for the grading.
 
 scikit-fem is an optional dependency (extra ``fe``), imported only inside the
@@ -22,6 +22,11 @@ from ..errors import UsageError
 
 FE_EXTRA_HINT = "the coupled model's built-in FE needs scikit-fem: pip install -e .[fe]"
 
+#: Mesh level shipped by default: level L puts L x L quadratic elements on each patch.
+DEFAULT_LEVEL = 3
+#: Tissue modelled beyond each axial edge of the cuff, in tissue thicknesses.
+DEFAULT_LENGTH_FACTOR = 6.0
+
 _RIGID_TOL = 1e-9
 # mesh grading (see docs/coupled-fe.md, "The mesh"): element sizes in units of the
 # patch element size h = patch width / level
@@ -39,24 +44,41 @@ def _skfem():
         import skfem  # noqa: F401
         from skfem import (Basis, BilinearForm, ElementHex2, ElementQuad2, ElementVector,
                            FacetBasis, LinearForm, MeshHex, MeshHex2, MeshQuad, asm)
-        from skfem.models.elasticity import linear_elasticity
+        from skfem.models.elasticity import lame_parameters, linear_elasticity
     except ImportError:  # pragma: no cover - exercised by monkeypatching in the tests
         raise UsageError(FE_EXTRA_HINT) from None
     return dict(Basis=Basis, BilinearForm=BilinearForm, ElementHex2=ElementHex2,
                 ElementQuad2=ElementQuad2, ElementVector=ElementVector, FacetBasis=FacetBasis,
                 LinearForm=LinearForm, MeshHex=MeshHex, MeshHex2=MeshHex2, MeshQuad=MeshQuad,
-                asm=asm, linear_elasticity=linear_elasticity)
+                asm=asm, lame_parameters=lame_parameters, linear_elasticity=linear_elasticity)
 
 
 #: Largest Poisson ratio the built-in FE accepts. Displacement-based quadratic hexahedra
-#: stiffen spuriously (volumetric locking) as nu -> 0.5: on 2 rows x 7 patches of a 25 mm
-#: layer the rigid-cuff stiffness still moves by 2.5-2.8 % from mesh level 2 to 3 at
-#: nu = 0.45 but by 7.2-7.8 % at 0.49 (benchmarks/FE_CONVERGENCE.md). Up to 0.45 the
-#: shipped mesh is within the accuracy documented there; above it, it is not.
+#: stiffen spuriously (volumetric locking) as nu -> 0.5, so the stiffness converges ever
+#: more slowly with the mesh level. Up to 0.45 the shipped mesh is within the accuracy
+#: documented in benchmarks/FE_CONVERGENCE.md; above it, it is not.
 MAX_POISSON_RATIO = 0.45
 
 
-def _check_material(thickness=None, poisson_ratio=None, young_modulus=None, radius=None):
+def check_material(thickness=None, poisson_ratio=None, young_modulus=None, radius=None):
+    """Refuse FE inputs out of range (each check only for an argument given).
+
+    Parameters
+    ----------
+    thickness : float, optional
+        Tissue thickness t [m]: finite, > 0 and, with ``radius``, < radius.
+    poisson_ratio : float, optional
+        nu [-]: in (-1, 0.5) and at most :data:`MAX_POISSON_RATIO`.
+    young_modulus : float, optional
+        E [Pa]: finite, > 0.
+    radius : float, optional
+        Cuff radius R [m].
+
+    Raises
+    ------
+    ValueError
+        One line naming the parameter and the range expected.
+    """
     if young_modulus is not None:
         E = float(young_modulus)
         if not (math.isfinite(E) and E > 0):
@@ -265,7 +287,14 @@ def _distinct_rows(geometry):
     return uniq[:, 0], uniq[:, 1], inv.ravel()
 
 
-def _single_radius(geometry):
+def single_radius(geometry) -> float:
+    """The one cuff radius R [m] of all rows of a geometry (the FE models a cylinder).
+
+    Raises
+    ------
+    ValueError
+        Rows of different radii.
+    """
     R = np.asarray(geometry.radius, float)
     if R.size == 0 or np.ptp(R) > 1e-12 * np.max(np.abs(R)):
         raise ValueError("the coupled tissue model needs one cuff radius for all rows; "
@@ -284,8 +313,8 @@ def _radial_nodes(R, t, n_r, ratio=1.0):
 
 def _build_mesh(geometry, thickness, level, length_factor):
     sk = _skfem()
-    R = _single_radius(geometry)
-    _check_material(thickness=thickness, radius=R)
+    R = single_radius(geometry)
+    check_material(thickness=thickness, radius=R)
     level = int(level)
     if level < 1:
         raise ValueError(f"level: expected an integer >= 1, got {level}")

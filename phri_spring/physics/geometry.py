@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CuffGeometry", "cuff_geometry", "skew", "element_jacobians",
+__all__ = ["CuffGeometry", "cuff_geometry", "skew", "rigid_body_map", "element_jacobians",
            "contact_vectors", "tangent"]
 
 
@@ -97,8 +97,45 @@ def skew(p: np.ndarray) -> np.ndarray:
     return out
 
 
+def rigid_body_map(points, rotations: bool = False) -> np.ndarray:
+    """Map of a small rigid-body motion u = (t, w) to the motion of points attached to the body.
+
+    A translation t [m] and a small rotation w [rad] about the origin move a point p
+    by t + w x p = t - [p]x w; a body attached at p also turns by w.
+
+    Parameters
+    ----------
+    points : array_like, shape (..., 3)
+        Points p [m], in the frame of t and w.
+    rotations : bool, optional
+        False: the displacement of each point only; True: followed by the rotation w.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 6), or (..., 6, 6) with ``rotations``
+        [[I3, -[p]x]] or [[I3, -[p]x], [0, I3]] per point [-, m; -, -].
+
+    Examples
+    --------
+    A rotation about z (w = e_z) moves the point on +y toward -x:
+
+    >>> rigid_body_map([[0.0, 1.0, 0.0]]) @ np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    array([[-1.,  0.,  0.]])
+    """
+    p = np.asarray(points, dtype=float)
+    k = 6 if rotations else 3
+    out = np.zeros(p.shape[:-1] + (k, 6))
+    out[..., :3, :3] = np.eye(3)
+    out[..., :3, 3:] = skew(-p)       # -[p]x = [-p]x
+    if rotations:
+        out[..., 3:, 3:] = np.eye(3)
+    return out
+
+
 def element_jacobians(points: np.ndarray) -> np.ndarray:
     """B_e = [I3, -[p_e]x]: cuff displacement u = (t, w) to point displacement d_e = B_e u.
+
+    The :func:`rigid_body_map` of the points.
 
     Parameters
     ----------
@@ -109,11 +146,7 @@ def element_jacobians(points: np.ndarray) -> np.ndarray:
     -------
     ndarray, shape (n, 3, 6)
     """
-    points = np.asarray(points, dtype=float)
-    B = np.zeros((points.shape[0], 3, 6))
-    B[:, :, :3] = np.eye(3)
-    B[:, :, 3:] = -skew(points)
-    return B
+    return rigid_body_map(points)
 
 
 def contact_vectors(points: np.ndarray, normals: np.ndarray) -> np.ndarray:

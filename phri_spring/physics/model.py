@@ -12,10 +12,12 @@ from .springs import (element_stiffness, indenter_to_element, shear_ratio_from_p
                       shear_stiffness_matrix)
 from .tissue_laws import LinearLaw, SeriesElement, TissueLaw, make_law
 
-__all__ = ["SpringModel", "build_model", "tissue_element_stiffness", "field_table"]
+__all__ = ["SpringModel", "build_model", "tissue_element_stiffness", "field_table", "field_unit"]
 
 
-def _unit(unit: str, source: str) -> dict:
+def field_unit(unit: str, source: str) -> dict:
+    """Metadata of a model's array field: its unit and where docs/model.md defines it
+    (read by :func:`field_table` and ``config_units``)."""
     return {"unit": unit, "source": source}
 
 
@@ -96,21 +98,21 @@ class SpringModel(OnGeometry):
 
     geometry: CuffGeometry
     arm: str
-    k: np.ndarray = field(metadata=_unit("N/m", "docs/model.md section 2"))
-    k_shear: np.ndarray = field(metadata=_unit("N/m", "docs/model.md section 2"))
-    K_s: np.ndarray = field(metadata=_unit("[[N/m, N/rad], [N*m/m, N*m/rad]]",
+    k: np.ndarray = field(metadata=field_unit("N/m", "docs/model.md section 2"))
+    k_shear: np.ndarray = field(metadata=field_unit("N/m", "docs/model.md section 2"))
+    K_s: np.ndarray = field(metadata=field_unit("[[N/m, N/rad], [N*m/m, N*m/rad]]",
                                            "docs/model.md section 2"))
-    delta0: np.ndarray = field(metadata=_unit("m", "docs/model.md section 3"))
-    f0: np.ndarray = field(metadata=_unit("N", "docs/model.md section 3"))
-    W_pre: np.ndarray = field(metadata=_unit("[N, N, N, N*m, N*m, N*m]", "docs/model.md section 3"))
+    delta0: np.ndarray = field(metadata=field_unit("m", "docs/model.md section 3"))
+    f0: np.ndarray = field(metadata=field_unit("N", "docs/model.md section 3"))
+    W_pre: np.ndarray = field(metadata=field_unit("[N, N, N, N*m, N*m, N*m]", "docs/model.md section 3"))
     strap_model: str = "hoop"
-    pain_threshold_kpa: float = field(default=120.0, metadata=_unit("kPa", "docs/model.md section 4"))
-    bT: np.ndarray = field(init=False, repr=False, metadata=_unit("[-, m]", "derived"))
-    bb: np.ndarray = field(init=False, repr=False, metadata=_unit("[-, m, m^2]", "derived"))
-    delta0_b: np.ndarray = field(init=False, repr=False, metadata=_unit("[m, m^2]", "derived"))
-    b_absmax: np.ndarray = field(init=False, repr=False, metadata=_unit("[-, m]", "derived"))
-    delta0_absmax: float = field(init=False, repr=False, metadata=_unit("m", "derived"))
-    inv_area_kpa: np.ndarray = field(init=False, repr=False, metadata=_unit("1/(1000 N)", "derived"))
+    pain_threshold_kpa: float = field(default=120.0, metadata=field_unit("kPa", "docs/model.md section 4"))
+    bT: np.ndarray = field(init=False, repr=False, metadata=field_unit("[-, m]", "derived"))
+    bb: np.ndarray = field(init=False, repr=False, metadata=field_unit("[-, m, m^2]", "derived"))
+    delta0_b: np.ndarray = field(init=False, repr=False, metadata=field_unit("[m, m^2]", "derived"))
+    b_absmax: np.ndarray = field(init=False, repr=False, metadata=field_unit("[-, m]", "derived"))
+    delta0_absmax: float = field(init=False, repr=False, metadata=field_unit("m", "derived"))
+    inv_area_kpa: np.ndarray = field(init=False, repr=False, metadata=field_unit("1/(1000 N)", "derived"))
     element: SeriesElement | None = field(default=None, repr=False)
 
     def __post_init__(self):

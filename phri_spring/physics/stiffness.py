@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .geometry import skew
+
 __all__ = ["interface_stiffness", "stiffness_at_loadcell", "principal_stiffness"]
 
 
@@ -79,8 +81,7 @@ def stiffness_at_loadcell(K, rotation=None, position=(0.0, 0.0, 0.0)) -> np.ndar
     array([1000., 1000., 1000.,   10.,    0.,   10.])
     """
     R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
-    px, py, pz = np.asarray(position, dtype=float)
-    P = np.array([[0.0, -pz, py], [pz, 0.0, -px], [-py, px, 0.0]])
+    P = skew(np.asarray(position, dtype=float).reshape(3))
     Jinv = np.zeros((6, 6))
     Jinv[:3, :3] = R.T
     Jinv[3:, 3:] = R.T

@@ -259,12 +259,12 @@ def check_fe_cache(cfg: Config, inputs: UncertainInputs, arms) -> None:
     if ("coupled" not in arms or cfg.continuum_surface_stiffness is not None
             or cfg.continuum_thickness is None or not reaches_model(cfg, inputs, "coupled")):
         return
-    from ..io.surface_stiffness import load_or_build
+    from ..io.surface_stiffness import load_or_build_operators
     from .common import geometry_from_config, model_from_config
 
     try:    # builds the cache entry (K is linear in E: any E keys the same entry)
-        _, info = load_or_build(geometry_from_config(cfg), cfg.continuum_thickness, 1.0,
-                                cfg.poisson_ratio)
+        info = load_or_build_operators(geometry_from_config(cfg), cfg.continuum_thickness, 1.0,
+                                       cfg.poisson_ratio).info
     except ValueError:
         model_from_config(cfg, "coupled")   # the config's own one-line error
         raise
