@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ..errors import ConfigError, ConfigTypeError
+from .schema_errors import config_error_from
 from .config_values import _read_stiffness_csv, resolve_stiffness  # noqa: F401
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
@@ -190,33 +191,9 @@ def _fields_at(model_cls, loc) -> list[str]:
 
 
 def _pydantic_to_config_error(exc: ValidationError, path, more_keys=None) -> ConfigError:
-    errors = exc.errors(include_url=False)
-    # an unknown key explains a "missing" one next to it (a misspelling): report it first
-    err = next((e for e in errors if e["type"] == "extra_forbidden"), errors[0])
-    loc = [str(p) for p in err["loc"] if not str(p).startswith(("function-", "union"))]
-    # drop pydantic's union branch names such as 'float', 'list[float]'
-    loc = [p for p in loc if p not in ("float", "list[float]", "str", "list", "dict", "int")]
-    etype = err["type"]
-    if etype == "extra_forbidden":
-        bad = loc[-1]
-        valid = _fields_at(_Root, loc[:-1]) + list((more_keys or {}).get(".".join(loc[:-1]), ()))
-        close = difflib.get_close_matches(bad, valid, n=1, cutoff=0.5)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        parent = ".".join(loc[:-1]) or "the top level"
-        return ConfigError(f"unknown key {bad!r} in {parent}{hint} (valid keys: "
-                           f"{', '.join(valid)})", file=path, key=".".join(loc))
-    if etype == "missing":
-        return ConfigError("missing required key", file=path, key=".".join(loc))
-    msg = err["msg"]
-    given = err.get("input")
-    if etype in ("float_parsing", "int_parsing", "float_type", "int_type", "bool_type",
-                 "string_type", "dict_type", "list_type", "tuple_type", "model_type"):
-        cls = ConfigTypeError
-    else:
-        cls = ConfigError
-    if isinstance(given, (int, float, str)) and not isinstance(given, bool):
-        msg = f"{msg}, got {given!r}"
-    return cls(msg, file=path, key=".".join(loc) or None)
+    more = more_keys or {}
+    return config_error_from(exc, path, lambda loc: _fields_at(_Root, loc)
+                             + list(more.get(".".join(loc), ())))
 
 
 # --------------------------------------------------------------------------- result

@@ -29,6 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from ..errors import ConfigError
 from ..objectives import OBJECTIVES
 from .config import load_yaml
+from .schema_errors import config_error_from
 
 __all__ = ["Study", "Parameter", "Constraint", "UncertaintySpec", "load_study", "study_from_dict",
            "OBJECTIVES", "parse_path"]
@@ -105,25 +106,7 @@ def _fields_at(loc) -> list[str]:
 
 
 def _error(exc: ValidationError, path) -> ConfigError:
-    err = exc.errors(include_url=False)[0]
-    loc = [str(p) for p in err["loc"]]
-    loc = [p for p in loc if not p.startswith(("function-", "union")) and
-           p not in ("float", "str", "list[str]", "int")]
-    if err["type"] == "extra_forbidden":
-        bad = loc[-1]
-        valid = _fields_at(loc[:-1])
-        close = difflib.get_close_matches(bad, valid, n=1, cutoff=0.5)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        parent = ".".join(loc[:-1]) or "the top level"
-        return ConfigError(f"unknown key {bad!r} in {parent}{hint} (valid keys: "
-                           f"{', '.join(valid)})", file=path, key=".".join(loc))
-    if err["type"] == "missing":
-        return ConfigError("missing required key", file=path, key=".".join(loc))
-    msg = err["msg"]
-    given = err.get("input")
-    if isinstance(given, (int, float, str)) and not isinstance(given, bool):
-        msg = f"{msg}, got {given!r}"
-    return ConfigError(msg, file=path, key=".".join(loc) or None)
+    return config_error_from(exc, path, _fields_at)
 
 
 # --------------------------------------------------------------------------- result
