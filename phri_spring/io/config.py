@@ -20,9 +20,9 @@ from typing import Any, Literal, Optional, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
-from ..errors import ConfigError, ConfigTypeError
+from ..errors import ConfigError
 from .schema_errors import config_error_from
-from .config_values import _read_stiffness_csv, resolve_stiffness  # noqa: F401
+from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
 
