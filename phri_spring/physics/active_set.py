@@ -32,7 +32,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-__all__ = ["PLAIN_ITERATIONS", "SET_RTOL", "FactorCache", "ContactSystem", "set_keys",
+__all__ = ["PLAIN_ITERATIONS", "SET_RTOL", "FactorCache", "ContactSystem", "set_keys", "key_groups",
            "iterate", "next_sets", "solve_warm", "WARM_STRIDE"]
 
 #: plain (undamped) active-set iterations before the system's safeguard takes over
@@ -168,6 +168,30 @@ def set_keys(S: np.ndarray) -> np.ndarray:
 
 
 _HASH_MULTIPLIERS: dict = {}
+
+
+def key_groups(keys: np.ndarray, unique=None):
+    """(key, row indices) for every distinct contact-set key of ``keys`` (m,).
+
+    The rows of a group share one set, hence one factorisation: one pass when every
+    row has the same key, a scan per group for a few groups, one sort for many.
+    ``unique``: ``np.unique(keys, return_inverse=True)`` if the caller has it.
+    """
+    m = len(keys)
+    if m == 0:
+        return
+    if unique is None and (m == 1 or np.all(keys == keys[0])):
+        yield keys[0], np.arange(m)
+        return
+    uniq, inv = np.unique(keys, return_inverse=True) if unique is None else unique
+    if len(uniq) <= 8:
+        for j in range(len(uniq)):
+            yield uniq[j], np.flatnonzero(inv == j)
+        return
+    order = np.argsort(inv, kind="stable")
+    bounds = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=len(uniq)))])
+    for j in range(len(uniq)):
+        yield uniq[j], order[bounds[j]:bounds[j + 1]]
 
 
 def _hash_multipliers(nw: int) -> np.ndarray:

@@ -40,7 +40,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve, solve_triangular
 from scipy.optimize import nnls
 
-from .active_set import SET_RTOL, ContactSystem, FactorCache, set_keys
+from .active_set import SET_RTOL, ContactSystem, FactorCache, key_groups, set_keys
 from .geometry import CuffGeometry, rigid_body_map
 from .model import OnGeometry, field_unit
 from .preload import strap_preload
@@ -173,7 +173,7 @@ class CoupledModel(OnGeometry):
         system = self.contact_system(FactorCache(64))
         out = np.zeros((len(u), self.n * self.dofs))
         keys = set_keys(S)
-        for key, idx in _groups(keys):
+        for key, idx in key_groups(keys):
             f = system.factors(key, S[idx[0]])
             out[np.ix_(idx, f.tied)] = u[idx] @ f.force_map.T + f.force_offset
         return out.reshape(len(u), self.n, self.dofs)
@@ -185,18 +185,6 @@ class CoupledModel(OnGeometry):
 
 #: rows per chunk when per-row set maps are gathered (bounds the (rows, 6, n) temporary)
 _GATHER_ROWS = 4096
-
-
-def _groups(keys: np.ndarray):
-    """(key, row indices) for every distinct key, in order of first appearance."""
-    if len(keys) and np.all(keys == keys[0]):
-        yield keys[0], np.arange(len(keys))
-        return
-    uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
-    order = np.argsort(inv, kind="stable")
-    bounds = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=len(uniq)))])
-    for j in np.argsort(first):
-        yield uniq[j], order[bounds[j]:bounds[j + 1]]
 
 
 class SetFactors(NamedTuple):

@@ -41,7 +41,6 @@ _RADIAL_GROWTH = 1.5   # size ratio of radial elements, from the skin inward
 def _skfem():
     """Import scikit-fem lazily; a one-line :class:`UsageError` when the extra is missing."""
     try:
-        import skfem  # noqa: F401
         from skfem import (Basis, BilinearForm, ElementHex2, ElementQuad2, ElementVector,
                            FacetBasis, LinearForm, MeshHex, MeshHex2, MeshQuad, asm)
         from skfem.models.elasticity import lame_parameters, linear_elasticity

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .active_set import (PLAIN_ITERATIONS, SET_RTOL, ContactSystem, FactorCache, iterate,
-                         set_keys, solve_warm)
+                         key_groups, set_keys, solve_warm)
 from .model import SpringModel
 
 __all__ = ["Solution", "solve", "solve_per_sample", "Solver", "SpringSystem", "FactorCache",
@@ -220,18 +220,12 @@ class SpringSystem(ContactSystem):
             Mt, c = self.factors(keys[0], S[0])
             u = r + c
             return u @ Mt
-        uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
-        G = len(uniq)
+        unique = np.unique(keys, return_inverse=True)
+        G = len(unique[0])
         if G <= 4 or 20 * G <= m:
             out = np.empty((m, 6))
-            if G <= 8:
-                groups = (np.flatnonzero(inv == j) for j in range(G))
-            else:
-                order = np.argsort(inv, kind="stable")
-                bounds = np.concatenate([[0], np.cumsum(np.bincount(inv, minlength=G))])
-                groups = (order[bounds[j]:bounds[j + 1]] for j in range(G))
-            for j, idx in enumerate(groups):
-                Mt, c = self.factors(uniq[j], S[first[j]])
+            for key, idx in key_groups(keys, unique):
+                Mt, c = self.factors(key, S[idx[0]])
                 out[idx] = (r[idx] + c) @ Mt
             return out
         # many distinct sets: assemble and solve every 6x6 system at once
