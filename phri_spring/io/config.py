@@ -363,7 +363,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                           file=path, key="strap.axial_position")
 
     law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
-                                           labels, path)
+                                           labels, path, base)
     cont = root.tissue.continuum
     surface = None
     if cont is not None and cont.surface_stiffness is not None:
@@ -386,7 +386,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         strap_model=st.model,
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
         strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
-        raw=original, stiffness_files=stiffness_files + ((surface,) if surface else ()),
+        raw=original, stiffness_files=stiffness_files + ((surface,) if surface else ())
+        + tuple(_csv_path(v, base) for v in law_values.values() if isinstance(v, str)),
         tissue_stiffness_csv=_csv_path(root.tissue.stiffness, base),
         continuum_thickness=None if cont is None else float(cont.thickness),
         continuum_young_modulus=None if cont is None or cont.young_modulus is None
@@ -411,7 +412,11 @@ def _split_law_parameters(data: dict, path):
     tissue = data.get("tissue")
     if not isinstance(tissue, dict) or not isinstance(tissue.get("law", "linear"), str):
         return data, {}, []
-    law = tissue.get("law", "linear")
+    # a stiffening rate without a law asks for the exponential law (0: linear, exactly)
+    law = tissue.get("law", "exponential" if "stiffening" in tissue else "linear")
+    if "law" not in tissue and law != "linear":
+        data = {**data, "tissue": {**tissue, "law": law}}
+        tissue = data["tissue"]
     if law not in TISSUE_LAWS:  # before its parameters are taken for unknown keys
         close = difflib.get_close_matches(law, list(TISSUE_LAWS), n=1, cutoff=0.5)
         hint = f"; did you mean {close[0]!r}?" if close else ""
@@ -425,7 +430,7 @@ def _split_law_parameters(data: dict, path):
     return {**data, "tissue": rest}, values, keys
 
 
-def _tissue_law(law, values, n_rows, n_angles, labels, path):
+def _tissue_law(law, values, n_rows, n_angles, labels, path, base):
     """(law name, law class, its parameters as (n,) arrays in their units)."""
     from ..physics.tissue_laws import TISSUE_LAWS
 
@@ -435,7 +440,8 @@ def _tissue_law(law, values, n_rows, n_angles, labels, path):
         p = params[key]
         out[key] = resolve_stiffness(value, n_rows, n_angles, labels, path=path,
                                      key=f"tissue.{key}", minimum=p.minimum, unit=p.unit,
-                                     what=key.replace("_", " "))
+                                     what=key.replace("_", " "), csv_column=p.csv_column,
+                                     base_dir=base)
     return law, TISSUE_LAWS[law], out
 
 

@@ -19,7 +19,11 @@ from ..errors import ConfigError, ConfigTypeError, DataError
 __all__ = ["resolve_stiffness"]
 
 
-def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = False) -> np.ndarray:
+def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = False, *,
+                        column: str = "stiffness_N_per_m",
+                        minimum: Optional[float] = None) -> np.ndarray:
+    """One per-location column of a ``phri fit-stiffness`` CSV, in the order of ``labels``:
+    positive values, or (``minimum``) finite ones >= minimum."""
     import pandas as pd
 
     if not csv_path.is_file():
@@ -31,28 +35,33 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = Fal
 
     text = read_text(csv_path, what="a stiffness CSV")
     try:
-        df = pd.read_csv(io.StringIO(text), comment="#",
-                         dtype={"stiffness_N_per_m": str})  # raw text, for messages
+        df = pd.read_csv(io.StringIO(text), comment="#", dtype={column: str})  # raw text
     except Exception as exc:  # noqa: BLE001 - any parser failure is bad data
         msg = str(exc).replace("\n", " ")
         raise DataError(f"cannot read as CSV ({msg})", file=csv_path) from None
-    for col in ("location", "stiffness_N_per_m"):
+    for col in ("location", column):
         if col not in df.columns:
             raise DataError(f"missing column {col!r}; expected a CSV written by "
                             "'phri fit-stiffness'", file=csv_path, key=col)
-    values = pd.to_numeric(df["stiffness_N_per_m"], errors="coerce").astype(float)
+    values = pd.to_numeric(df[column], errors="coerce").astype(float)
     locs = df["location"].astype(str).str.strip()
     mapping = {}
-    for loc, v, raw in zip(locs, values, df["stiffness_N_per_m"]):
+    for loc, v, raw in zip(locs, values, df[column]):
         if loc in mapping:
             raise DataError(f"location {loc!r} appears twice", file=csv_path, key="location")
+        if minimum is not None:
+            if not (isinstance(v, float) and math.isfinite(v) and v >= minimum):
+                raise DataError(f"location {loc}: expected a finite value >= {minimum:g}, got "
+                                f"{raw!r}", file=csv_path, key=column)
+            mapping[loc] = float(v)
+            continue
         too_big = math.isinf(v) and str(raw).strip().lower().lstrip("+") not in (
             "inf", "infinity", ".inf")   # e.g. 1e999: a typo, not a rigid element
         if too_big or not (isinstance(v, float) and v > 0 and (math.isfinite(v) or allow_inf)):
             what = "a positive stiffness (inf allowed)" if allow_inf else \
                 "a positive finite stiffness"
             raise DataError(f"location {loc}: expected {what}, got {raw!r}",
-                            file=csv_path, key="stiffness_N_per_m")
+                            file=csv_path, key=column)
         mapping[loc] = float(v)
     missing = [lab for lab in labels if lab not in mapping]
     extra = [loc for loc in mapping if loc not in labels]
@@ -70,14 +79,15 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = Fal
 def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, key="",
                       allow_inf: bool = False, base_dir: Optional[Path] = None,
                       minimum: Optional[float] = None, unit: str = "N/m",
-                      what: str = "stiffness") -> np.ndarray:
+                      what: str = "stiffness", csv_column: Optional[str] = None) -> np.ndarray:
     """Turn any stiffness value form of docs/model.md section 6 into an (n,) array [N/m], row-major.
 
     Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
     rows x angles list, a mapping label -> value covering every element, or a
     path (relative to ``base_dir``) to a CSV written by ``phri fit-stiffness``.
     With ``minimum`` (a tissue law's parameter, in ``unit``): finite values >=
-    ``minimum`` instead of positive ones, and no CSV form.
+    ``minimum`` instead of positive ones, read from the CSV's ``csv_column`` (no CSV
+    form without one).
     """
     n = n_rows * n_angles
     shape_txt = f"{n_rows} rows x {n_angles} angles"
@@ -111,13 +121,16 @@ def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, k
         raise ConfigTypeError(f"expected a {what} [{unit}], got {value!r}", file=path, key=key)
     if isinstance(value, (int, float)):
         return np.full(n, float(check(float(value))))
-    if isinstance(value, str) and minimum is not None:
+    if isinstance(value, str) and minimum is not None and csv_column is None:
         raise ConfigTypeError(f"expected a number, {{per_row: [...]}}, {{per_angle: [...]}}, a "
                               f"{shape_txt} list or a label mapping [{unit}], got {value!r}",
                               file=path, key=key)
     if isinstance(value, str):
         base = base_dir if base_dir is not None else Path(".")
         csv_path = Path(value) if Path(value).is_absolute() else base / value
+        if csv_column is not None:
+            return check(_read_stiffness_csv(csv_path, labels, path, key, column=csv_column,
+                                             minimum=minimum))
         return check(_read_stiffness_csv(csv_path, labels, path, key, allow_inf))
     if isinstance(value, dict):
         if set(value) in ({"per_row"}, {"per_angle"}):

@@ -57,6 +57,9 @@ class LawParameter:
         Value when the config does not give the key.
     minimum : float
         Smallest accepted value (inclusive); values must be finite.
+    csv_column : str, optional
+        Column of a ``phri fit-stiffness`` CSV holding the parameter per location, so
+        that the config's value may be that CSV's path.
     """
 
     key: str
@@ -64,6 +67,7 @@ class LawParameter:
     description: str
     default: float = 0.0
     minimum: float = 0.0
+    csv_column: str | None = None
 
 
 #: name -> law class, every law a config can name (``tissue.law``)
@@ -86,13 +90,16 @@ def make_law(name, k0, **params) -> "TissueLaw":
     """The law ``name`` (a registered name, or a :class:`TissueLaw` subclass) with initial
     stiffness ``k0`` (n,) [N/m] and its parameters."""
     if isinstance(name, type) and issubclass(name, TissueLaw):
-        return name(k0, **params)
-    try:
-        cls = TISSUE_LAWS[name]
-    except KeyError:
-        raise ValueError(f"tissue law: expected one of {', '.join(sorted(TISSUE_LAWS))}, "
-                         f"got {name!r}") from None
-    return cls(k0, **params)
+        cls = name
+    else:
+        try:
+            cls = TISSUE_LAWS[name]
+        except KeyError:
+            raise ValueError(f"tissue law: expected one of {', '.join(sorted(TISSUE_LAWS))}, "
+                             f"got {name!r}") from None
+    law = cls(k0, **params)
+    # a law that is linear at these parameters is solved as the linear law, exactly
+    return LinearLaw(law.k0) if law.linear_here() else law
 
 
 class TissueLaw:
@@ -134,6 +141,10 @@ class TissueLaw:
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(n={self.n})"
+
+    def linear_here(self) -> bool:
+        """True when the law is F = k0 d at its parameters (e.g. a zero stiffening rate)."""
+        return False
 
     # ---- what every law implements (arrays of shape (..., n), compression d [m])
     def force(self, d: np.ndarray) -> np.ndarray:
@@ -213,6 +224,64 @@ class LinearLaw(TissueLaw):
 
     def compression_at(self, f):
         return np.asarray(f, dtype=float) / self.k0
+
+
+@register_law
+class ExponentialLaw(TissueLaw):
+    """F(d) = (k0 / beta) (exp(beta d) - 1) for d > 0: tissue that stiffens with compression.
+
+    k0 [N/m] is the slope at d = 0 and beta [1/m] the stiffening rate: the tangent
+    k0 exp(beta d) grows by e every 1/beta of compression. beta = 0 is the linear law
+    (exactly: :func:`make_law` then returns it). Exponential (Fung-type) laws describe
+    the force-indentation curves of soft tissue and whole interfaces (docs/model.md
+    section 11.3).
+    """
+
+    name = "exponential"
+    parameters = (LawParameter("stiffening", "1/m", "stiffening rate beta of "
+                               "F = (k0/beta)(exp(beta d) - 1)", default=0.0, minimum=0.0,
+                               csv_column="stiffening_per_m"),)
+
+    def linear_here(self) -> bool:
+        return bool(np.all(self.params["stiffening"] == 0.0))
+
+    def _x(self, d):
+        return self.params["stiffening"] * np.maximum(d, 0.0)
+
+    def force(self, d):
+        beta = self.params["stiffening"]
+        dp = np.maximum(d, 0.0)
+        x = beta * dp
+        # expm1(x) / beta without dividing by a zero beta: dp * expm1(x) / x, -> dp as x -> 0
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            ratio = np.where(x > 0, np.expm1(x) / np.where(x > 0, x, 1.0), 1.0)
+        return self.k0 * dp * ratio
+
+    def tangent(self, d):
+        d = np.asarray(d, dtype=float)
+        with np.errstate(over="ignore"):
+            return np.where(d >= 0.0, self.k0 * np.exp(self._x(d)), 0.0)
+
+    def energy(self, d):
+        # psi = k0 (expm1(x) - x) / beta^2 = k0 dp^2 (expm1(x) - x) / x^2; a series where x is
+        # small, as the difference cancels there
+        beta = self.params["stiffening"]
+        dp = np.maximum(d, 0.0)
+        x = beta * dp
+        small = x < 1e-3
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            xs = np.where(small, 1.0, x)
+            g = np.where(small, 0.5 + x / 6.0 + x * x / 24.0 + x ** 3 / 120.0,
+                         (np.expm1(xs) - xs) / (xs * xs))
+        return self.k0 * dp * dp * g
+
+    def compression_at(self, f):
+        beta = self.params["stiffening"]
+        f = np.asarray(f, dtype=float)
+        y = beta * f / self.k0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            ratio = np.where(y > 0, np.log1p(y) / np.where(y > 0, y, 1.0), 1.0)
+        return f / self.k0 * ratio
 
 
 class SeriesElement:
