@@ -152,8 +152,17 @@ class PhriGroup(click.Group):
                 where = f"{os.fsdecode(name)}: " if name is not None else ""
                 click.echo(f"{prog}: error: {where}{reason}", err=True)
                 sys.exit(EXIT_DATA)
+            if isinstance(exc, RuntimeError) and "can't start new thread" in str(exc):
+                # a thread's stack is refused by the same limits (ulimit -v, -u)
+                exc = MemoryError("can't start new thread")
             if isinstance(exc, MemoryError):
-                click.echo(f"{prog}: error: out of memory", err=True)
+                # the last line of defence: runs are estimated before they allocate
+                # (io/memory_budget.py), but an estimate can be short, and memory
+                # others take meanwhile is not ours (numpy, pyarrow: ArrowMemoryError)
+                detail = " ".join(str(exc).split())
+                click.echo(f"{prog}: error: out of memory{f' ({detail})' if detail else ''}; "
+                           "expected a run that fits in this machine's memory (fewer "
+                           "elements, draws or designs)", err=True)
                 sys.exit(EXIT_DATA)
             msg = str(exc).replace("\n", " ")
             click.echo(f"{prog}: internal error: {type(exc).__name__}: {msg} "
@@ -210,3 +219,24 @@ def info(message: str, quiet: bool = False) -> None:
 
 def warn(message: str) -> None:
     click.echo(f"warning: {message}", err=True)
+
+
+class ArmChoice(click.Choice):
+    """The arm models of ``phri_spring.workflows.common.ARMS`` (the arm registry), looked up when first needed.
+
+    The list is not repeated here (new arm models appear by themselves), and
+    numpy is not imported until the command runs or shows its help.
+    """
+
+    def __init__(self):
+        super().__init__((), case_sensitive=True)
+
+    @property
+    def choices(self):
+        from phri_spring.workflows.common import ARMS
+
+        return tuple(ARMS)
+
+    @choices.setter
+    def choices(self, value):  # click assigns in __init__; the list lives in ARMS
+        pass

@@ -80,7 +80,13 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
     result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness,
                          columns=colmap)
     if uncertainty is not None:  # computed before anything is written: a failure leaves nothing
+        from phri_spring.io.memory_budget import check_draws
         from phri_spring.workflows.uncertainty import compare_bands, write_compare_bands
+
+        # every draw's forces at every condition are held at once (models one at a time)
+        check_draws(result.config, "coupled" if "coupled" in result.arms else "compliant",
+                    uncertainty, distinct=False,
+                    rows=sum(len(tc.conditions) for tc in result.trials))
         bands = compare_bands(result, draws=uncertainty, seed=seed, sd=uncertainty_sd)
     if not no_figures and progress_enabled(None):  # progress: only on a terminal
         n_fig = 1 + sum(len(tc.conditions) for tc in result.trials)   # bars, wrench, heat maps

@@ -68,6 +68,7 @@ def design(study, output, scheduler, workers, no_figures, dpi, progress, quiet):
     """
     from phri_spring.workflows.design import run_study
 
+    study = _checked_study(study, scheduler, workers)
     bar = _DesignProgress("design", progress_enabled(progress))
     try:
         result = run_study(study, output, scheduler=scheduler, workers=workers,
@@ -87,3 +88,22 @@ def design(study, output, scheduler, workers, no_figures, dpi, progress, quiet):
     info(f"wrote {result.outdir} ({len(t):,} designs over {result.loads.n_samples:,} samples, "
          f"{int(t['feasible'].sum()):,} feasible, {int(t['pareto'].sum()):,} on the Pareto "
          f"front); {best}; see {result.outdir / 'report.md'}", quiet)
+
+
+def _checked_study(path, scheduler, workers):
+    """The loaded study, after checking that its designs (every design's config is kept)
+    and the local workers (each evaluates one design over the whole load set) fit in memory,
+    before any design is made or anything written."""
+    from phri_spring.io.config import load_config
+    from phri_spring.io.logs import count_rows
+    from phri_spring.io.study import load_study
+    from phri_spring.workflows.executors import default_workers, parse_scheduler
+    from phri_spring.io.memory_budget import check_design
+
+    study = load_study(path)
+    base = load_config(study.config)
+    kind, n_local = parse_scheduler(scheduler)
+    local = {"pool": workers or default_workers(), "local": n_local}.get(kind, 0)
+    samples = sum(count_rows(f, columns=base.log_columns) or 0 for f in study.loads)
+    check_design(study, base, local, samples)
+    return study

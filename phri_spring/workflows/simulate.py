@@ -24,6 +24,8 @@ from ..io.logs import ForcesWriter, count_rows, iter_wrench_log, prefetch, table
 from ..physics.model import SpringModel
 from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
+from ..io.memory_budget import plan_stream
+from .plotting import MaxPool
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
@@ -349,7 +351,9 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     columns : dict, optional
         Map from spec names to the log's column names; merged over ``load_cell.columns``.
     chunk_rows : int
-        Samples per chunk (bounds memory).
+        Samples per chunk (bounds memory): a hint, capped at about 4 M values per chunk
+        and lowered when the machine's memory is short
+        (:func:`~phri_spring.io.memory_budget.plan_stream`).
     decimals : int or None
         CSV output only: decimals kept in forces and pressures (default 6, i.e.
         1 uN and 1 mPa); None or a negative value keeps every digit. Parquet
@@ -361,7 +365,14 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     on_chunk : callable(time, absolute_forces, peak_pressure_kpa), optional
         Called in order, on the calling thread, once per chunk with its times (m,)
         [s], absolute forces (m, n) [N] and peak pressures (m,) [kPa] (e.g. to
-        draw the run, :mod:`phri_spring.workflows.plotting`).
+        draw the run, :mod:`phri_spring.workflows.plotting`; a ``MaxPool`` and its
+        figure count in the memory estimate).
+
+    Raises
+    ------
+    ConfigError
+        The run cannot fit in this machine's memory even in small chunks, or its CSV
+        table would be wider than pyarrow's CSV writer allows; nothing is written.
     """
     output = Path(output)
     out_fmt = table_format(output, role="output", option="-o/--output")
@@ -370,16 +381,19 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     base = parse_baseline(baseline)
     colmap = dict(cfg.log_columns)
     colmap.update(columns or {})
+    # rows per chunk: the hint, capped so that a fine mesh's chunk stays about 32 MB, and
+    # fewer when memory is short; a run that cannot fit is refused here, before any output
+    rows = plan_stream(cfg, arm, chunk_rows, output_format=out_fmt, shear=shear,
+                       plot=isinstance(on_chunk, MaxPool), log=log, columns=colmap,
+                       cache_dir=cache_dir)
     model = model_from_config(cfg, arm, cache_dir=cache_dir)
 
-    mean_lc = _window_mean(log, colmap, base, chunk_rows) if base.kind in ("first", "window") \
+    mean_lc = _window_mean(log, colmap, base, rows) if base.kind in ("first", "window") \
         else None
     f_base = _baseline_forces(model, cfg, base, mean_lc, cfg.max_iterations)
     # the same column map as the reader: a TDMS/MAT log counts the rows of the group read
     total = count_rows(log, columns=colmap) if progress is not None else None
 
-    # fine meshes: fewer rows per chunk, so a chunk's arrays stay about 32 MB
-    rows = max(1024, min(int(chunk_rows), (1 << 22) // model.n))
     # (chunk, wrench on the cuff): the transform runs on the reader thread when there is one
     chunks = ((ch, cuff_wrench(cfg, ch.wrench))
               for ch in iter_wrench_log(log, colmap, chunk_rows=rows))
