@@ -6,7 +6,7 @@ import math
 
 import click
 
-from ._common import StderrProgress, info, progress_enabled, warn
+from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
 
 
 @click.command("simulate", context_settings={"help_option_names": ["-h", "--help"]})
@@ -14,7 +14,7 @@ from ._common import StderrProgress, info, progress_enabled, warn
 @click.argument("log", metavar="LOG")
 @click.option("-o", "--output", required=True, metavar="OUT",
               help="Forces file to write: .csv or .parquet (chosen by the extension).")
-@click.option("--arm", type=click.Choice(["compliant", "rigid", "coupled"]), default="compliant",
+@click.option("--arm", type=ArmChoice(), default="compliant",
               show_default=True,
               help="compliant: tissue and cuff springs in series; rigid: the rigid-arm "
                    "assumption (cuff springs only); coupled: the tissue as a continuum layer "
@@ -40,7 +40,8 @@ from ._common import StderrProgress, info, progress_enabled, warn
                    "[kPa] with the pain threshold, and every element's force [N] as a heat "
                    "map, both max-pooled over time (no peak lost; bounded memory).")
 @click.option("--chunk-rows", type=click.IntRange(min=1), default=65536, show_default=True,
-              help="Samples per chunk (bounds memory on long logs).")
+              help="Samples per chunk (bounds memory on long logs); a hint: fewer rows are "
+                   "used on fine meshes and when the machine's memory is short.")
 @click.option("--progress/--no-progress", default=None,
               help="Progress on stderr (default: only when stderr is a terminal).")
 @click.option("--uncertainty", type=click.IntRange(min=2), default=None, metavar="N",
@@ -87,6 +88,9 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     base = parse_baseline(baseline)
     if uncertainty is not None:
         from phri_spring.workflows.uncertainty import run_cli
+        if base.kind == "none":   # (run_cli refuses any other baseline with its own line)
+            config = _check_draws(config, log, output, arm, colmap, uncertainty,
+                                  uncertainty_sd)
         bar = StderrProgress("simulate --uncertainty", progress_enabled(progress))
         try:
             run = run_cli(config, log, output, arm, str(base), colmap, uncertainty,
@@ -103,6 +107,13 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
 
         check_plot_path(plot, [log, config, output])
         config = load_config(config)
+        # the pool and its figure hold about 2,000 groups per element: check before making it
+        from phri_spring.io.logs import table_format
+        from phri_spring.io.memory_budget import plan_stream
+
+        plan_stream(config, arm, chunk_rows, shear=shear, plot=True, log=log,
+                    output_format=table_format(output, role="output", option="-o/--output"),
+                    columns={**config.log_columns, **colmap})
         group_name = colmap.get(LOG_GROUP_KEY, config.log_columns.get(LOG_GROUP_KEY))
         pool = MaxPool(len(config.labels), total=count_rows(log, group_name))
     bar = StderrProgress("simulate", progress_enabled(progress))
@@ -133,3 +144,20 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
          f"{arm} arm, baseline {base}); {peak}; solver {summary.mean_iterations:.2f} "
          f"solves/sample on average" + (f"; plot {plot}" if plot else ""), quiet)
+
+
+def _check_draws(config, log, output, arm, colmap, draws, sd):
+    """The loaded config, after checking that ``draws`` Monte Carlo draws (a model each when
+    the tissue or the tension is drawn) fit in memory: nothing is drawn or written before."""
+    from phri_spring.io.config import load_config
+    from phri_spring.io.logs import table_format
+    from phri_spring.io.memory_budget import check_draws, check_model
+    from phri_spring.workflows.uncertainty import parse_sd, uncertain_inputs
+
+    cfg = load_config(config)
+    fmt = table_format(output, role="output", option="-o/--output")
+    inputs = uncertain_inputs(cfg, **parse_sd(sd))
+    check_model(cfg, arm)
+    check_draws(cfg, arm, draws, distinct=bool(inputs.tissue_sd.any() or inputs.tension_sd_N > 0),
+                output_format=fmt, log=log, columns={**cfg.log_columns, **colmap})
+    return cfg

@@ -4,33 +4,15 @@ from __future__ import annotations
 
 import click
 
-
-class _ArmChoice(click.Choice):
-    """The arm models of ``phri_spring.workflows.common.ARMS``, looked up when first needed.
-
-    The list is not repeated here (new arm models appear by themselves), and
-    numpy is not imported until the command runs or shows its help.
-    """
-
-    def __init__(self):
-        super().__init__((), case_sensitive=True)
-
-    @property
-    def choices(self):
-        from phri_spring.workflows.common import ARMS
-
-        return tuple(ARMS)
-
-    @choices.setter
-    def choices(self, value):  # click assigns in __init__; the list lives in ARMS
-        pass
+from ._common import ArmChoice
 
 
 @click.command("stiffness", context_settings={"help_option_names": ["-h", "--help"]})
 @click.argument("config", metavar="CONFIG")
-@click.option("--arm", type=_ArmChoice(), default="compliant", show_default=True,
-              help="Arm model: compliant (tissue and cuff springs in series), rigid (cuff "
-                   "springs only) or any other model listed.")
+@click.option("--arm", type=ArmChoice(), default="compliant", show_default=True,
+              help="Arm model (docs/model.md section 11.4): compliant (tissue and cuff "
+                   "springs in series), rigid (cuff springs only), coupled (the tissue as a "
+                   "continuum) or any other model listed.")
 @click.option("--json", "as_json", is_flag=True,
               help="Print one JSON object instead of the table: key K is the 6x6 matrix in SI "
                    "units (N/m, N/rad, N*m/m, N*m/rad), rows Fx Fy Fz Mx My Mz, columns "

@@ -28,6 +28,7 @@ __all__ = [
     "ConvergenceError",
     "OutputError",
     "UsageError",
+    "ModelInputError",
 ]
 
 
@@ -83,6 +84,20 @@ class ConvergenceError(PhriError, RuntimeError):
 class OutputError(PhriError):
     """The system refused to write an output: full disk, file-size limit, read-only place,
     a file where a folder should be. ``file`` is the output the user asked for."""
+
+
+class ModelInputError(ValueError):
+    """A physics function refused its inputs (raised by ``phri_spring.physics``).
+
+    ``quantity`` names what was wrong in the model's own terms, so that a caller
+    holding a config can name the config key without reading the message:
+    ``geometry`` (the cuff cannot be held), ``stiffness``, ``shear_ratio``,
+    ``surface_stiffness``, ``normal_output``.
+    """
+
+    def __init__(self, message: str, quantity: str):
+        self.quantity = quantity
+        super().__init__(message)
 
 
 class UsageError(PhriError, ValueError):

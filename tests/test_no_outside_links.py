@@ -70,7 +70,7 @@ def test_model_document_is_linked_and_numbered():
     assert "](docs/model.md)" in readme
     model = (ROOT / "docs" / "model.md").read_text(encoding="utf-8")
     heads = re.findall(r"^## (\d+)\. (.+)$", model, flags=re.M)
-    assert [int(n) for n, _ in heads] == list(range(1, 11))
+    assert [int(n) for n, _ in heads] == list(range(1, len(heads) + 1)) and len(heads) >= 11
     assert [t for _, t in heads][:9] == ["Geometry and frames", "Springs", "Strap preload",
                                          "Equilibrium", "Load cell", "Config", "Files",
                                          "Command line", "Solver"]

@@ -247,6 +247,14 @@ class Config:
     #: stiffness scatter of a Monte Carlo with tissue=from_csv)
     tissue_stiffness_csv: Optional[Path] = None
 
+    def geometry(self):
+        """The element geometry (:class:`~phri_spring.physics.geometry.CuffGeometry`) it describes."""
+        from ..physics.geometry import cuff_geometry
+
+        return cuff_geometry(self.row_x, self.radius, self.row_width, self.angle_start_deg,
+                             self.angle_step_deg, self.angle_count, self.angle_width_deg,
+                             row_labels=self.row_labels)
+
     @property
     def n_rows(self) -> int:
         return len(self.row_labels)
@@ -312,7 +320,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                           key="geometry.angles")
     # before the labels and per-element arrays exist: a count of a billion must end in one
     # line, not in the out-of-memory killer
-    from ..workflows.memory_budget import check_elements
+    from .memory_budget import check_elements
 
     check_elements(n_rows, n_ang, path=path)
     labels = _label_list(row_labels, n_ang)

@@ -41,13 +41,14 @@ from scipy.linalg import cho_factor, cho_solve, solve_triangular
 from scipy.optimize import nnls
 
 from .active_set import SET_RTOL, ContactSystem, FactorCache, key_groups, set_keys
+from ..errors import ModelInputError
 from .geometry import CuffGeometry, rigid_body_map
 from .model import OnGeometry, field_unit
 from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
 
 __all__ = ["CoupledModel", "CoupledSystem", "SetFactors", "build_coupled_model", "patch_frames",
-           "rigid_patch_map"]
+           "rigid_patch_map", "scale_patches"]
 
 
 def patch_frames(geometry: CuffGeometry) -> np.ndarray:
@@ -441,25 +442,28 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     n = geometry.n
     K = np.asarray(K_surface, dtype=float)
     if K.ndim != 2 or K.shape[0] != K.shape[1] or K.shape[0] not in (3 * n, 6 * n):
-        raise ValueError(f"surface stiffness: expected shape ({3 * n}, {3 * n}) or "
-                         f"({6 * n}, {6 * n}) for {n} patches, got {K.shape}")
+        raise ModelInputError(f"surface stiffness: expected shape ({3 * n}, {3 * n}) or "
+                              f"({6 * n}, {6 * n}) for {n} patches, got {K.shape}",
+                              "surface_stiffness")
     if not np.isfinite(K).all():
-        raise ValueError("surface stiffness: expected finite numbers")
+        raise ModelInputError("surface stiffness: expected finite numbers", "surface_stiffness")
     scale = np.abs(K).max()
     if not np.allclose(K, K.T, rtol=0, atol=1e-8 * scale):
-        raise ValueError("surface stiffness: expected a symmetric matrix")
+        raise ModelInputError("surface stiffness: expected a symmetric matrix",
+                              "surface_stiffness")
     K = 0.5 * (K + K.T)
     try:
         cK = cho_factor(K)
     except np.linalg.LinAlgError:
-        raise ValueError("surface stiffness: expected a positive definite matrix") from None
+        raise ModelInputError("surface stiffness: expected a positive definite matrix",
+                              "surface_stiffness") from None
     dofs = K.shape[0] // n
     k_c = np.broadcast_to(np.asarray(k_cuff, dtype=float), (n,)).copy()
     if not np.all(k_c > 0):
-        raise ValueError("cuff stiffness: expected > 0 (inf for a rigid cuff)")
+        raise ModelInputError("cuff stiffness: expected > 0 (inf for a rigid cuff)", "stiffness")
     eta = shear_ratio_from_poisson(poisson_ratio) if shear_ratio is None else float(shear_ratio)
     if not eta > 0:
-        raise ValueError(f"shear_ratio: expected > 0, got {eta}")
+        raise ModelInputError(f"shear_ratio: expected > 0, got {eta}", "shear_ratio")
 
     R = _local_rotation(geometry, dofs)
     C_t_global = cho_solve(cK, np.eye(K.shape[0]))
@@ -476,8 +480,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     if normal_output is not None:
         N_g = np.asarray(normal_output, dtype=float)
         if N_g.shape != (n, n * dofs) or not np.isfinite(N_g).all():
-            raise ValueError(f"normal output: expected finite numbers of shape ({n}, {n * dofs}), "
-                             f"got {N_g.shape}")
+            raise ModelInputError(f"normal output: expected finite numbers of shape "
+                                  f"({n}, {n * dofs}), got {N_g.shape}", "normal_output")
         N_out = N_g @ R.T
 
     f0, W_handles = strap_preload(geometry, strap_tension, strap_model, handle_angles_deg,
@@ -496,11 +500,11 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                 p = np.full(n, np.nan)
             if not np.all(p > 0):
                 bad = int(np.argmax(~(p > 0)))
-                raise ValueError(f"normal output: with this map the strap's hoop preload cannot "
-                                 f"be carried by pressing patches (patch "
-                                 f"{geometry.labels[bad]} would have to pull to report its "
-                                 f"{f0[bad]:.3g} N); check that the output map belongs to "
-                                 f"the surface stiffness")
+                raise ModelInputError(f"normal output: with this map the strap's hoop preload "
+                                      f"cannot be carried by pressing patches (patch "
+                                      f"{geometry.labels[bad]} would have to pull to report "
+                                      f"its {f0[bad]:.3g} N); check that the output map "
+                                      f"belongs to the surface stiffness", "normal_output")
             P0[normals] = p
         delta = C @ P0
         W_pre = T.T @ P0
@@ -516,6 +520,24 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     try:
         model.contact_system(FactorCache(0))._reduced_problem()
     except np.linalg.LinAlgError:
-        raise ValueError("the tangential ties cannot hold the cuff in every direction for this "
-                         "geometry (e.g. a single angular location)") from None
+        raise ModelInputError("the tangential ties cannot hold the cuff in every direction for "
+                              "this geometry (e.g. a single angular location)",
+                              "geometry") from None
     return model
+
+
+def scale_patches(K, N, s):
+    """Each patch's tissue stiffened by its own factor s_e (n,) [-] (a per-patch modulus).
+
+    K' = D K D with D = diag(sqrt(s_e)) on patch e's dofs: patch e's own stiffness scales
+    by s_e, the coupling of patches e and f by sqrt(s_e s_f), and K' stays symmetric
+    positive definite. The normal output N (n, n d), if given, follows: row e and the
+    columns of patch f by sqrt(s_e) sqrt(s_f).
+    """
+    s = np.sqrt(np.asarray(s, dtype=float))
+    d = np.repeat(s, K.shape[0] // len(s))
+    K = K * d[:, None] * d[None, :]
+    if N is not None:
+        N = N * d[None, :] * s[:, None]
+    return K, N
+

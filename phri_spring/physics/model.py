@@ -6,6 +6,7 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from ..errors import ModelInputError
 from .geometry import CuffGeometry, element_jacobians
 from .preload import strap_preload
 from .springs import (element_stiffness, indenter_to_element, shear_ratio_from_poisson,
@@ -251,20 +252,20 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
     bad = ~np.isfinite(k) | ~(k > 0)
     if bad.any():
         first = geometry.labels[int(np.argmax(bad))]
-        raise ValueError(f"element {first} has stiffness {k[bad][0]!r} N/m in the {arm} model; "
-                         "expected a positive finite value (an infinitely stiff element has no "
-                         "defined contact force)")
+        raise ModelInputError(f"element {first} has stiffness {k[bad][0]!r} N/m in the {arm} "
+                              "model; expected a positive finite value (an infinitely stiff "
+                              "element has no defined contact force)", "stiffness")
     eta = shear_ratio_from_poisson(poisson_ratio) if shear_ratio is None else float(shear_ratio)
     if not eta > 0:
-        raise ValueError(f"shear_ratio: expected > 0, got {eta}")
+        raise ModelInputError(f"shear_ratio: expected > 0, got {eta}", "shear_ratio")
     k_s = eta * k
     B = element_jacobians(geometry.points)
     K_s = shear_stiffness_matrix(k_s, B, geometry.normals)
     eig = np.linalg.eigvalsh(0.5 * (K_s + K_s.T))
     if not eig[0] > 1e-9 * max(eig[-1], 1e-300):
-        raise ValueError("the shear stiffness matrix K_s is singular for this geometry "
-                         "(e.g. a single angular location): the cuff is not held in every "
-                         "direction")
+        raise ModelInputError("the shear stiffness matrix K_s is singular for this geometry "
+                              "(e.g. a single angular location): the cuff is not held in every "
+                              "direction", "geometry")
 
     f0, W_handles = strap_preload(geometry, strap_tension, strap_model, handle_angles_deg,
                                   handle_axial_position)

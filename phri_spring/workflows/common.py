@@ -2,25 +2,61 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Callable
+
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, ModelInputError
 from ..io.config import Config
-from ..physics.geometry import CuffGeometry, cuff_geometry
+from ..physics.geometry import CuffGeometry
 from ..physics.loadcell import FORCE_UNITS, MOMENT_UNITS, loadcell_to_cuff
-from ..physics.model import SpringModel, build_model, tissue_element_stiffness
+from ..physics.model import build_model, tissue_element_stiffness
+from ..io.memory_budget import check_model
 
-__all__ = ["geometry_from_config", "model_from_config", "cuff_wrench", "ARMS"]
+__all__ = ["geometry_from_config", "model_from_config", "cuff_wrench", "ARMS", "ARM_MODELS",
+           "ArmModel", "register_arm"]
 
-#: arm models: the paper's two spring models and the coupled tissue model (docs/model.md)
-ARMS = ("compliant", "rigid", "coupled")
+
+@dataclass(frozen=True)
+class ArmModel:
+    """An arm model a config can be solved with (``--arm NAME``; docs/model.md section 11.4).
+
+    Attributes
+    ----------
+    name : str
+    description : str
+        One line for ``--help`` and the docs.
+    build : callable (cfg: Config, cache_dir) -> model
+        Assembles the model of a config: an object with ``contact_system``, ``W_pre``,
+        ``labels``, ``areas`` and ``inv_area_kpa`` (``SpringModel`` and ``CoupledModel``
+        are the built-in ones).
+    """
+
+    name: str
+    description: str
+    build: Callable
+
+
+#: name -> arm model: every command's list of arms reads it (see :func:`register_arm`)
+ARM_MODELS: dict = {}
+#: the names of :data:`ARM_MODELS`, in registration order
+ARMS: tuple = ()
+
+
+def register_arm(name: str, description: str):
+    """Decorator: register ``build(cfg, cache_dir) -> model`` as the arm model ``name``."""
+    def deco(build):
+        global ARMS
+        ARM_MODELS[name] = ArmModel(name, description, build)
+        ARMS = tuple(ARM_MODELS)
+        return build
+    return deco
 
 
 def geometry_from_config(cfg: Config) -> CuffGeometry:
     """The element geometry a config describes."""
-    return cuff_geometry(cfg.row_x, cfg.radius, cfg.row_width, cfg.angle_start_deg,
-                         cfg.angle_step_deg, cfg.angle_count, cfg.angle_width_deg,
-                         row_labels=cfg.row_labels)
+    return cfg.geometry()
 
 
 def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
@@ -29,10 +65,11 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
     Parameters
     ----------
     cfg : Config
-    arm : {'compliant', 'rigid', 'coupled'}
-        The paper's spring network with tissue and cuff springs in series
-        (``compliant``) or cuff springs only (``rigid``), or the coupled tissue
-        model (``coupled``: needs ``tissue.continuum``; docs/model.md section 10).
+    arm : str or ArmModel
+        A name of :data:`ARM_MODELS` (or the record itself): the paper's spring
+        network with tissue and cuff springs in series (``compliant``) or cuff
+        springs only (``rigid``), the coupled tissue model (``coupled``: needs
+        ``tissue.continuum``; docs/model.md section 10), or a registered one.
     cache_dir : path, optional
         ``coupled`` only: where the built-in FE's surface stiffness is cached.
 
@@ -45,14 +82,40 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
     ConfigError
         If an element would be infinitely stiff (e.g. ``cuff.stiffness: .inf``
         with the rigid arm), the geometry cannot hold the cuff (singular K_s), or
-        the coupled model's inputs are missing or out of range.
+        the coupled model's inputs are missing or out of range, or the model
+        (for the coupled arm, with its tissue FE) cannot fit in this machine's
+        memory (:func:`~phri_spring.io.memory_budget.check_model`).
     UsageError
         ``coupled`` without the ``fe`` extra (and no ``surface_stiffness`` file).
     """
-    if arm not in ARMS:
+    arm_model = arm if isinstance(arm, ArmModel) else ARM_MODELS.get(arm)
+    if arm_model is None:
         raise ValueError(f"arm: expected one of {ARMS}, got {arm!r}")
-    if arm == "coupled":
-        return _coupled_model(cfg, cache_dir)
+    # before anything is allocated: an allocation that fails in C++ (the coupled FE, LAPACK)
+    # aborts the process instead of raising (io/memory_budget.py)
+    check_model(cfg, arm_model.name, cache_dir=cache_dir)
+    return arm_model.build(cfg, cache_dir)
+
+
+#: config key a physics input error is about (ModelInputError.quantity -> key)
+_QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear_ratio",
+                  "stiffness": "cuff.stiffness", "surface_stiffness": "tissue.continuum",
+                  "normal_output": "tissue.continuum"}
+
+
+@register_arm("compliant", "tissue and cuff springs in series (the paper's compliant arm; "
+                           "any tissue law)")
+def _compliant_model(cfg: Config, cache_dir=None):
+    return _spring_model(cfg, "compliant")
+
+
+@register_arm("rigid", "cuff springs only: the rigid-arm assumption of the literature")
+def _rigid_model(cfg: Config, cache_dir=None):
+    return _spring_model(cfg, "rigid")
+
+
+def _spring_model(cfg: Config, arm: str):
+    """The spring network of docs/model.md sections 1-4 for the compliant or rigid arm."""
     geom = geometry_from_config(cfg)
     k_t = tissue_element_stiffness(cfg.tissue_stiffness, geom.areas, cfg.tissue_basis,
                                    cfg.indenter_diameter)
@@ -67,9 +130,11 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
                            poisson_ratio=cfg.poisson_ratio, strap_tension=cfg.strap_tension,
                            strap_model=cfg.strap_model, handle_angles_deg=cfg.handle_angles_deg,
                            handle_axial_position=cfg.strap_axial_position,
-                           pain_threshold_kpa=cfg.pain_threshold_kpa)
-    except ValueError as exc:
-        key = "geometry.angles" if "K_s" in str(exc) else None
+                           pain_threshold_kpa=cfg.pain_threshold_kpa,
+                           law=cfg.tissue_law_class or cfg.tissue_law,
+                           law_parameters=cfg.tissue_law_parameters)
+    except ModelInputError as exc:
+        key = _QUANTITY_KEYS.get(exc.quantity) if exc.quantity != "stiffness" else None
         raise ConfigError(str(exc), file=cfg.path, key=key) from None
 
 
@@ -104,9 +169,11 @@ def _fe_module(cfg: Config):
     return fe_tissue
 
 
+@register_arm("coupled", "the tissue as a continuum layer on the bone, condensed by FE onto the "
+                         "cuff's patches (needs tissue.continuum; docs/model.md section 10)")
 def _coupled_model(cfg: Config, cache_dir=None):
     """The coupled tissue model of a config (docs/model.md section 10)."""
-    from ..physics.coupled import build_coupled_model
+    from ..physics.coupled import build_coupled_model, scale_patches
 
     key = "tissue.continuum"
     if cfg.continuum_thickness is None:
@@ -154,10 +221,7 @@ def _coupled_model(cfg: Config, cache_dir=None):
     if cfg.continuum_spread == "per_patch":
         if E is None:
             E = continuum_modulus(cfg, geom)
-        s = E / np.mean(E)
-        K = _scale_per_patch(K, s, geom.n)
-        if N is not None:  # the output follows the patch's own stiffness
-            N = N * np.repeat(np.sqrt(s), N.shape[1] // geom.n)[None, :] * np.sqrt(s)[:, None]
+        K, N = scale_patches(K, N, E / np.mean(E))
     try:
         return build_coupled_model(geom, K, cfg.cuff_stiffness, poisson_ratio=cfg.poisson_ratio,
                                    shear_ratio=cfg.shear_ratio, strap_tension=cfg.strap_tension,
@@ -165,16 +229,9 @@ def _coupled_model(cfg: Config, cache_dir=None):
                                    handle_angles_deg=cfg.handle_angles_deg,
                                    handle_axial_position=cfg.strap_axial_position,
                                    pain_threshold_kpa=cfg.pain_threshold_kpa, normal_output=N)
-    except ValueError as exc:
+    except ModelInputError as exc:
         raise ConfigError(str(exc), file=cfg.continuum_surface_stiffness or cfg.path,
-                          key=key) from None
-
-
-def _scale_per_patch(K: np.ndarray, s: np.ndarray, n: int) -> np.ndarray:
-    """D K D with D = diag(sqrt(s_e)) on patch e's dofs: patch e's stiffness scaled by s_e,
-    the coupling of patches e and f by sqrt(s_e s_f) (symmetric positive definite kept)."""
-    d = np.repeat(np.sqrt(np.asarray(s, dtype=float)), K.shape[0] // n)
-    return K * d[:, None] * d[None, :]
+                          key=_QUANTITY_KEYS.get(exc.quantity, key)) from None
 
 
 def cuff_wrench(cfg: Config, wrench_lc) -> np.ndarray:

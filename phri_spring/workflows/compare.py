@@ -41,7 +41,7 @@ from ..io.config import Config, load_config, resolve_stiffness
 from ..io.experiment import WRENCH_COLUMNS, Manifest, TrialData, load_manifest, read_trial
 from ..physics.metrics import mean_and_se, rmse as rmse_eq1, zero_on
 from ..physics.solver import solve
-from .common import ARMS, cuff_wrench, model_from_config
+from .common import ARM_MODELS, cuff_wrench, model_from_config
 
 __all__ = ["compare", "write_compare", "CompareResult", "TrialComparison", "CompareOutputs",
            "parse_arms", "summary_markdown", "DEFAULT_ARMS", "RMSE_COLUMNS", "SUMMARY_COLUMNS"]
@@ -69,11 +69,11 @@ def parse_arms(arms: Union[str, Sequence[str], None]) -> tuple:
         [str(a).strip() for a in arms]
     items = [a for a in items if a]
     if not items:
-        raise UsageError(f"expected at least one of {', '.join(ARMS)}", key="--arms")
+        raise UsageError(f"expected at least one of {', '.join(ARM_MODELS)}", key="--arms")
     for a in items:
-        if a not in ARMS:
+        if a not in ARM_MODELS:
             raise UsageError(f"unknown arm model {a!r}; expected a comma-separated list of "
-                             f"{', '.join(ARMS)}", key="--arms")
+                             f"{', '.join(ARM_MODELS)}", key="--arms")
     if len(set(items)) != len(items):
         raise UsageError(f"arm models repeated in {','.join(items)}; expected each once",
                          key="--arms")

@@ -34,6 +34,7 @@ from ..errors import UsageError
 from ..io.atomic import atomic_file, check_output_path
 from ..io.study import OBJECTIVES, Study, load_study
 from ..reports.design_report import design_report
+from .common import ARM_MODELS
 from .design_objectives import (LoadSet, evaluate_batch, evaluate_design, load_set,
                                 pareto_mask, weighted_percentile)
 from .design_plan import build_designs, design_mapping, design_values
@@ -145,7 +146,9 @@ def run_study(study_path, outdir, *, scheduler: Optional[str] = None,
                 progress(count[0], n_total)
 
         t_map = time.perf_counter()
-        run(evaluate_batch, todo, (loads, study.arm), on_result=on_result)
+        # the arm's record, not its name: a worker process then imports the module that
+        # registered it (its build function travels by reference), whoever registered it
+        run(evaluate_batch, todo, (loads, ARM_MODELS[study.arm]), on_result=on_result)
         map_seconds = time.perf_counter() - t_map
 
     result = _assemble(study, base, values, configs, loads, done, outdir)

@@ -21,7 +21,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..io.config import Config, config_from_dict
 from ..io.study import Study
-from .common import ARMS, model_from_config
+from .common import ARM_MODELS, model_from_config
 from .config_paths import check_parameter, set_parameter
 
 __all__ = ["design_values", "design_mapping", "build_designs"]
@@ -94,11 +94,11 @@ def build_designs(study: Study, base: Config) -> tuple:
         Naming the parameter path (a missing or non-numeric key) or, for a value
         the config schema rejects, the design, its values and the config key.
     """
-    if study.arm not in ARMS:
-        close = difflib.get_close_matches(study.arm, ARMS, n=1, cutoff=0.5)
+    if study.arm not in ARM_MODELS:
+        close = difflib.get_close_matches(study.arm, ARM_MODELS, n=1, cutoff=0.5)
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise ConfigError(f"unknown arm model {study.arm!r}{hint} (expected one of "
-                          f"{', '.join(ARMS)})", file=study.path, key="arm")
+                          f"{', '.join(ARM_MODELS)})", file=study.path, key="arm")
     for p in study.parameters:
         check_parameter(base.raw, p, study.path)
     values = design_values(study)
