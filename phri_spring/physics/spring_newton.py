@@ -34,16 +34,21 @@ _HALVINGS = 40
 
 
 def _state(model, u, r):
-    """Compression g, residual, energy and residual scale of displacements u (m, 6)."""
+    """Tissue compression d_t, residual, energy and residual scale of displacements u (m, 6).
+
+    The series split d_t of every element's compression is computed once here; the force,
+    energy and (in the Newton step) tangent all follow from it.
+    """
     el = model.element
     b = model.geometry.b
     g = model.delta0 + u @ model.bT
-    f = el.force(g)
+    dt = el.tissue_compression(g)
+    f, psi = el.from_share(dt)
     Ku = u @ model.K_s
     res = f @ b + Ku - r
     scale = (np.abs(f) @ np.abs(b) + np.abs(Ku) + np.abs(r)).max(axis=1)
-    Pi = el.energy(g).sum(axis=1) + 0.5 * np.einsum("mi,mi->m", u, Ku) - np.einsum("mi,mi->m", r, u)
-    return g, res, Pi, scale
+    Pi = psi.sum(axis=1) + 0.5 * np.einsum("mi,mi->m", u, Ku) - np.einsum("mi,mi->m", r, u)
+    return dt, res, Pi, scale
 
 
 def _newton_rows(model, r, u, max_steps):
@@ -59,7 +64,7 @@ def _newton_rows(model, r, u, max_steps):
         active = active[~ok]
         if active.size == 0 or step_no == max_steps:
             break
-        H = (model.element.tangent(g[active]) @ model.bb).reshape(-1, 6, 6) + model.K_s
+        H = (model.element.tangent_from_share(g[active]) @ model.bb).reshape(-1, 6, 6) + model.K_s
         d = -np.linalg.solve(H, res[active][:, :, None])[:, :, 0]
         slope = np.einsum("mi,mi->m", res[active], d)         # < 0: a descent direction
         alpha = np.ones(active.size)
@@ -126,7 +131,6 @@ def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state
         ui = u[i:i + 1]
         it_i, ok = _newton_rows(model, r[i:i + 1], ui, max_iterations)
         u[i], its[i], conv[i] = ui[0], it_i[0], ok[0]
-        g = model.delta0 + u[i] @ model.bT
-        state = law.advance(state, model.element.tissue_compression(g))
+        state = law.advance(state, model.element.tissue_compression(model.delta0 + u[i] @ model.bT))
     law.state = state
     return u, its, conv, state

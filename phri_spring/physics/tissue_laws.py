@@ -169,6 +169,15 @@ class TissueLaw:
         return state
 
     # ---- derived
+    def series_share(self, d, c_cuff) -> np.ndarray:
+        """The tissue's compression d_t >= 0 [m] when the tissue is in series with a spring of
+        compliance ``c_cuff`` (n,) [m/N] and the pair is compressed by d >= 0 (..., n):
+        d = d_t + F(d_t) c_cuff. By safeguarded Newton; a law may override it in closed form.
+        """
+        guess = d / (1.0 + self.k0 * c_cuff)
+        return _invert(lambda x: x + self.force(x) * c_cuff,
+                       lambda x: 1.0 + self.tangent(x) * c_cuff, d, guess)
+
     def compression_at(self, f) -> np.ndarray:
         """Compression d_e >= 0 [m] at which F_e(d) = f_e [N] (f >= 0), by safeguarded Newton.
 
@@ -275,6 +284,38 @@ class ExponentialLaw(TissueLaw):
                          (np.expm1(xs) - xs) / (xs * xs))
         return self.k0 * dp * dp * g
 
+    def series_share(self, d, c_cuff):
+        # d + a = d_t + a exp(beta d_t) with a = k0 c / beta has the closed form
+        # d_t = d + a - omega(ln(a beta) + beta (d + a)) / beta (omega: Wright's omega,
+        # W(exp(z)) without overflow). Where beta d is tiny that difference cancels, and the
+        # second-order expansion in beta d is exact to round-off instead. Two Newton steps on
+        # d_t + F(d_t) c = d then remove what round-off is left.
+        from scipy.special import wrightomega
+
+        beta = self.params["stiffening"]
+        d = np.maximum(np.asarray(d, dtype=float), 0.0)
+        c = np.broadcast_to(np.asarray(c_cuff, dtype=float), (self.n,))
+        k0c = self.k0 * c
+        lin = d / (1.0 + k0c)
+        dt = lin - 0.5 * k0c * beta * lin * lin / (1.0 + k0c)
+        big = (beta * d >= 1e-6) & (c > 0)
+        if big.any():
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                bs = np.where(beta > 0, beta, 1.0)
+                a = k0c / bs
+                z = np.log(np.where(a > 0, a * bs, 1.0)) + bs * (d + a)
+                closed = d + a - wrightomega(z) / bs
+            dt = np.where(big & np.isfinite(closed), closed, dt)
+        with np.errstate(over="ignore", invalid="ignore"):
+            for _ in range(2):
+                dt = np.clip(dt, 0.0, d)
+                g = dt + self.force(dt) * c - d
+                dt = dt - g / (1.0 + self.tangent(dt) * c)
+            dt = np.clip(dt, 0.0, d)
+        if not np.isfinite(dt).all():      # overflow of exp(beta d): the general inversion
+            return super().series_share(d, c_cuff)
+        return dt
+
     def compression_at(self, f):
         beta = self.params["stiffening"]
         f = np.asarray(f, dtype=float)
@@ -318,9 +359,19 @@ class SeriesElement:
         c = self._c_cuff
         if law.is_linear:
             return dp / (1.0 + law.k0 * c)
-        guess = dp / (1.0 + law.k0 * c)
-        return _invert(lambda x: x + law.force(x) * c, lambda x: 1.0 + law.tangent(x) * c,
-                       dp, guess)
+        return law.series_share(dp, c)
+
+    def from_share(self, dt):
+        """(force [N], energy [J]) of the elements from the tissue's share d_t (a nonlinear law)."""
+        f = self.law.force(dt)
+        return f, self.law.energy(dt) + 0.5 * f * f * self._c_cuff
+
+    def tangent_from_share(self, dt):
+        """df/dd [N/m] from the tissue's share d_t (0 where the element is open)."""
+        kt = self.law.tangent(dt)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k = np.where(kt > 0, 1.0 / (1.0 / np.where(kt > 0, kt, 1.0) + self._c_cuff), 0.0)
+        return np.where(dt > 0.0, k, 0.0)
 
     def force(self, d) -> np.ndarray:
         """Element force f [N] at total compressions d (..., n)."""
