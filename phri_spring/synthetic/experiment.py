@@ -124,13 +124,13 @@ def truth_model(cfg: Config, rng: np.random.Generator, *, strap_offset_n: float 
                  fsr_gain=gain, carried_fraction=float(carried_fraction))
 
 
-def _unit(v):
+def _normalized(v):
     return v / np.linalg.norm(v)
 
 
 def _misaligned(d, rng, sd):
     """Unit vector near d, tilted by about ``sd`` radians."""
-    return _unit(d + rng.normal(0.0, sd, 3) * (1.0 - np.abs(d)))
+    return _normalized(d + rng.normal(0.0, sd, 3) * (1.0 - np.abs(d)))
 
 
 def trial_plan(cfg: Config, experiment: str, direction: str, rng: np.random.Generator):
