@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import ModelInputError
 from .geometry import CuffGeometry, element_jacobians
 from .preload import strap_preload
-from .springs import (element_stiffness, indenter_to_element, shear_ratio_from_poisson,
+from .springs import (indenter_to_element, series_stiffness, shear_ratio_from_poisson,
                       shear_stiffness_matrix)
 from .tissue_laws import LinearLaw, SeriesElement, TissueLaw, make_law
 
@@ -248,7 +248,11 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
     n = geometry.n
     k_t = np.broadcast_to(np.asarray(k_tissue, dtype=float), (n,))
     k_c = np.broadcast_to(np.asarray(k_cuff, dtype=float), (n,))
-    k = element_stiffness(k_t, k_c, arm)
+    if arm not in ("compliant", "rigid"):
+        raise ValueError(f"arm: expected 'compliant' (tissue and cuff springs in series) or "
+                         f"'rigid' (cuff springs only), got {arm!r}")
+    tissue = arm == "compliant"
+    k = series_stiffness(k_t, k_c) if tissue else k_c.astype(float, copy=True)
     bad = ~np.isfinite(k) | ~(k > 0)
     if bad.any():
         first = geometry.labels[int(np.argmax(bad))]
@@ -269,10 +273,7 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
 
     f0, W_handles = strap_preload(geometry, strap_tension, strap_model, handle_angles_deg,
                                   handle_axial_position)
-    if arm == "rigid":
-        element = SeriesElement(None, k_c)
-    else:
-        element = SeriesElement(make_law(law, k_t, **(law_parameters or {})), k_c)
+    element = SeriesElement(make_law(law, k_t, **(law_parameters or {})) if tissue else None, k_c)
     if W_handles is None:  # hoop: u = 0 at zero load
         # each element carries f0_e: the compression of its series element at f0_e
         delta0 = f0 / k if element.is_linear else element.compression_at(f0)

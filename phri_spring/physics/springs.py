@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["indenter_to_element", "series_stiffness", "element_stiffness",
+__all__ = ["indenter_to_element", "series_stiffness",
            "shear_ratio_from_poisson", "shear_stiffness_matrix"]
 
 
@@ -42,27 +42,6 @@ def series_stiffness(k_a, k_b) -> np.ndarray:
     k_b = np.asarray(k_b, dtype=float)
     with np.errstate(divide="ignore"):
         return 1.0 / (1.0 / k_a + 1.0 / k_b)
-
-
-def element_stiffness(k_tissue, k_cuff, arm: str = "compliant") -> np.ndarray:
-    """Normal stiffness k_e of each element [N/m].
-
-    Parameters
-    ----------
-    k_tissue : array_like
-        Element tissue stiffness k_t,e [N/m].
-    k_cuff : array_like
-        Cuff stiffness k_c,e [N/m]; ``inf`` allowed.
-    arm : {'compliant', 'rigid'}
-        ``compliant``: tissue and cuff in series; ``rigid``: the rigid-arm
-        assumption of the literature, k_e = k_c,e.
-    """
-    if arm == "compliant":
-        return series_stiffness(k_tissue, k_cuff)
-    if arm == "rigid":
-        return np.broadcast_to(np.asarray(k_cuff, dtype=float),
-                               np.shape(k_tissue)).astype(float, copy=True)
-    raise ValueError(f"arm: expected 'compliant' or 'rigid', got {arm!r}")
 
 
 def shear_ratio_from_poisson(nu: float) -> float:

@@ -38,6 +38,8 @@ from typing import ClassVar
 
 import numpy as np
 
+from ..errors import ModelInputError
+
 __all__ = ["LawParameter", "TissueLaw", "LinearLaw", "SeriesElement", "TISSUE_LAWS",
            "register_law", "make_law"]
 
@@ -125,7 +127,7 @@ class TissueLaw:
     def __init__(self, k0, **params):
         k0 = np.atleast_1d(np.asarray(k0, dtype=float))
         if k0.ndim != 1 or not (np.isfinite(k0).all() and (k0 > 0).all()):
-            raise ValueError("k0: expected finite tissue stiffnesses > 0 [N/m]")
+            raise ModelInputError("k0: expected finite tissue stiffnesses > 0 [N/m]", "stiffness")
         self.k0 = k0
         self.n = len(k0)
         self.params = {}
@@ -133,11 +135,12 @@ class TissueLaw:
             v = params.pop(p.key, p.default)
             arr = np.broadcast_to(np.asarray(v, dtype=float), (self.n,)).copy()
             if not (np.isfinite(arr).all() and (arr >= p.minimum).all()):
-                raise ValueError(f"{p.key}: expected finite values >= {p.minimum:g} {p.unit}")
+                raise ModelInputError(f"{p.key}: expected finite values >= {p.minimum:g} {p.unit}",
+                                      "tissue_law")
             self.params[p.key] = arr
         if params:
-            raise ValueError(f"tissue law {self.name!r}: unknown parameter(s) "
-                             f"{', '.join(sorted(params))}")
+            raise ModelInputError(f"tissue law {self.name!r}: unknown parameter(s) "
+                                  f"{', '.join(sorted(params))}", "tissue_law")
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(n={self.n})"

@@ -99,6 +99,7 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
 
 #: config key a physics input error is about (ModelInputError.quantity -> key)
 _QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear_ratio",
+                  "tissue_law": "tissue.law",
                   "stiffness": "cuff.stiffness", "surface_stiffness": "tissue.continuum",
                   "normal_output": "tissue.continuum"}
 
