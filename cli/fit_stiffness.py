@@ -37,9 +37,14 @@ from ._common import info, warn
                    "mean, (max - min) / mean.")
 @click.option("--trials-csv", type=click.Path(path_type=Path), default=None, metavar="FILE",
               help="Also write one row per trial (slopes, R^2, onset, zero level ...).")
+@click.option("--law", type=click.Choice(["linear", "exponential"]), default="linear",
+              show_default=True,
+              help="linear: the unloading slope [N/m]. exponential: k0 [N/m] and the "
+                   "stiffening rate beta [1/m] of F = (k0/beta)(exp(beta (d - d0)) - 1) on "
+                   "the same unloading strokes, contact point d0 free.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line (warnings still shown).")
 def fit_stiffness(input_path, output, zero_window, onset_threshold, displacement_unit, plots,
-                  skip_bad_trials, min_r2, max_trial_spread, trials_csv, quiet):
+                  skip_bad_trials, min_r2, max_trial_spread, trials_csv, law, quiet):
     """Fit the tissue stiffness map [N/m] from indenter recordings.
 
     INPUT is a folder of trial files named <label>_<trial>.csv (e.g. B3_2.csv;
@@ -58,6 +63,11 @@ def fit_stiffness(input_path, output, zero_window, onset_threshold, displacement
     hysteresis_ratio, peak_force_N, peak_depth_mm, trial_spread, n_trials_skipped,
     flags). Use OUT.csv as tissue.stiffness in a config.
 
+    With --law exponential the stiffness columns hold k0, the slope at contact,
+    and stiffening_per_m, stiffening_std_per_m (mean and SD of beta over the
+    trials [1/m]) follow n_trials; OUT.csv is then both tissue.stiffness and
+    tissue.stiffening. A fit that fails or finds no stiffening is a warning.
+
     \b
     Example:
       phri fit-stiffness examples/indenter -o stiffness.csv --plots figs/
@@ -68,7 +78,7 @@ def fit_stiffness(input_path, output, zero_window, onset_threshold, displacement
     check_fit_outputs(input_path, output, plots=plots, trials_csv=trials_csv)
     result = run(input_path, zero_window=zero_window, onset_threshold=onset_threshold,
                  displacement_unit=displacement_unit, skip_bad_trials=skip_bad_trials,
-                 min_r2=min_r2, max_trial_spread=max_trial_spread)
+                 min_r2=min_r2, max_trial_spread=max_trial_spread, law=law)
     for message in result.warnings:
         warn(message)
     written = write_fit(result, output, plots=plots, trials_csv=trials_csv)

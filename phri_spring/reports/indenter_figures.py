@@ -1,7 +1,8 @@
 """Figures of the indenter analysis (paper Fig. 6), as ``matplotlib.figure.Figure`` objects.
 
 - :func:`force_displacement_grid`: Fig. 6a for every location, a rows x angles
-  grid of small force-depth panels with the fitted unloading lines;
+  grid of small force-depth panels with the fitted unloading lines (or, for
+  locations fitted with the exponential law, the fitted exponential curves);
 - :func:`indentation_response`: Fig. 6a for one location, loading and
   unloading drawn apart, with the fitted unloading lines;
 - :func:`stiffness_map`: Fig. 6b, the rows x angles stiffness heat map with the
@@ -19,6 +20,7 @@ from matplotlib.lines import Line2D
 
 from ..io.indenter import split_label
 from ..physics.indentation import LocationFit, TrialFit, location_statistics
+from ..physics.indentation_exponential import ExponentialFit, ExponentialLocationFit
 
 __all__ = ["force_displacement_grid", "indentation_response", "stiffness_map", "map_grid"]
 
@@ -65,12 +67,34 @@ def _contact_span(trial: TrialFit) -> slice:
     return slice(trial.onset_index, stop)
 
 
-def _fit_lines(ax, trial: TrialFit, **style):
+def _fit_lines(ax, trial: TrialFit, fit: ExponentialFit | None = None, **style):
+    """The unloading fits of a trial: straight lines, or the exponential ``fit``'s curves."""
+    style = {**_FIT_STYLE, **style}
+    if fit is not None:
+        if fit.converged:
+            for i in range(trial.unloading.n):
+                dd, ff = fit.curve(i)
+                ax.plot(dd * 1e3, ff, **style)
+        return
     for k, b, s0, s1 in zip(trial.unloading.slope, trial.unloading.intercept,
                             trial.unloading.start, trial.unloading.stop):
         d = trial.depth[s0:s1]
         dd = np.array([d.min(), d.max()])
-        ax.plot(dd * 1e3, k * dd + b, **{**_FIT_STYLE, **style})
+        ax.plot(dd * 1e3, k * dd + b, **style)
+
+
+def _law_fits(location) -> tuple:
+    """The exponential fits of a location's trials, or Nones for a linear LocationFit."""
+    if isinstance(location, ExponentialLocationFit):
+        return location.fits
+    return (None,) * len(location.trials)
+
+
+def _values_text(location) -> str:
+    """``4242 N/m``, or k0 [N/m] and the stiffening rate [1/m] for the exponential law."""
+    if isinstance(location, ExponentialLocationFit):
+        return f"k0 {location.stiffness:.0f} N/m, \u03b2 {location.stiffening:.0f}/m"
+    return f"{location.stiffness:.0f} N/m"
 
 
 def force_displacement_grid(locations, *, rows=None, n_angles=None, title: str | None = None,
@@ -79,7 +103,9 @@ def force_displacement_grid(locations, *, rows=None, n_angles=None, title: str |
 
     Parameters
     ----------
-    locations : sequence of LocationFit
+    locations : sequence of LocationFit or ExponentialLocationFit
+        With ExponentialLocationFit the fitted exponential curves are drawn, and
+        each panel's title gives k0 [N/m] and the stiffening rate beta [1/m].
     rows, n_angles : optional
         Grid layout (see :func:`map_grid`).
     title : str, optional
@@ -96,17 +122,19 @@ def force_displacement_grid(locations, *, rows=None, n_angles=None, title: str |
                  layout="constrained")
     axes = fig.subplots(len(rows), n_angles, sharex=True, sharey=True, squeeze=False)
     n_trials_max = 0
+    exponential = False
     filled = set()
     for loc, (r, a) in zip(locations, cells):
         ax = axes[r, a]
         filled.add((r, a))
-        for i, tr in enumerate(loc.trials):
+        for i, (tr, law_fit) in enumerate(zip(loc.trials, _law_fits(loc))):
             span = _contact_span(tr)
             ax.plot(tr.depth[span] * 1e3, tr.force[span], color=f"C{i % 10}", linewidth=0.8)
-            _fit_lines(ax, tr)
+            _fit_lines(ax, tr, law_fit)
         n_trials_max = max(n_trials_max, len(loc.trials))
+        exponential = exponential or isinstance(loc, ExponentialLocationFit)
         flag = " *" if loc.flags and set(loc.flags) - {"single_trial"} else ""
-        ax.set_title(f"{loc.location}: {loc.stiffness:.0f} N/m{flag}", fontsize=8,
+        ax.set_title(f"{loc.location}: {_values_text(loc)}{flag}", fontsize=8,
                      color="tab:red" if flag else "black")
     for r in range(len(rows)):
         for a in range(n_angles):
@@ -123,11 +151,13 @@ def force_displacement_grid(locations, *, rows=None, n_angles=None, title: str |
         axes[r, 0].set_ylabel(f"row {rows[r]}\nforce [N]", fontsize=8)
     handles = [Line2D([], [], color=f"C{i % 10}", linewidth=1.2, label=f"trial {i + 1}")
                for i in range(n_trials_max)]
-    handles.append(Line2D([], [], label="unloading fit", **_FIT_STYLE))
+    fit_name = "exponential unloading fit" if exponential else "unloading fit"
+    handles.append(Line2D([], [], label=fit_name, **_FIT_STYLE))
     fig.legend(handles=handles, loc="outside lower center", ncols=len(handles), fontsize=8,
                frameon=False)
+    what = "curves F = (k0/\u03b2)(exp(\u03b2 (d - d0)) - 1)" if exponential else "lines"
     fig.suptitle(title or "Indenter force vs depth from onset, with the fitted unloading "
-                 "lines (* flagged, see the flags column)", fontsize=10)
+                 f"{what} (* flagged, see the flags column)", fontsize=10)
     return fig
 
 
@@ -137,7 +167,8 @@ def indentation_response(location: LocationFit, *, title: str | None = None,
 
     Parameters
     ----------
-    location : LocationFit
+    location : LocationFit or ExponentialLocationFit
+        With ExponentialLocationFit the fitted exponential curves are drawn.
     title : str, optional
     figsize : (float, float)
         [inch]
@@ -149,15 +180,15 @@ def indentation_response(location: LocationFit, *, title: str | None = None,
     """
     fig = Figure(figsize=figsize, layout="constrained")
     ax = fig.add_subplot()
-    for tr in location.trials:
+    for tr, law_fit in zip(location.trials, _law_fits(location)):
         for s0, s1 in zip(tr.loading.start, tr.loading.stop):
             ax.plot(tr.depth[s0:s1] * 1e3, tr.force[s0:s1], color="C0", linewidth=1.0)
         for s0, s1 in zip(tr.unloading.start, tr.unloading.stop):
             ax.plot(tr.depth[s0:s1] * 1e3, tr.force[s0:s1], color="C1", linewidth=1.0)
-        _fit_lines(ax, tr)
+        _fit_lines(ax, tr, law_fit)
     handles = [Line2D([], [], color="C0", label="loading"),
                Line2D([], [], color="C1", label="unloading"),
-               Line2D([], [], label=f"unloading fit (mean {location.stiffness:.0f} N/m)",
+               Line2D([], [], label=f"unloading fit (mean {_values_text(location)})",
                       **_FIT_STYLE)]
     ax.legend(handles=handles, loc="upper left", fontsize=8)
     ax.set_xlabel("depth from onset [mm]")
@@ -174,7 +205,8 @@ def stiffness_map(locations, *, rows=None, n_angles=None, title: str | None = No
 
     Parameters
     ----------
-    locations : sequence of LocationFit
+    locations : sequence of LocationFit or ExponentialLocationFit
+        With ExponentialLocationFit the map shows k0, the slope at contact.
     rows, n_angles : optional
         Grid layout (see :func:`map_grid`).
     title : str, optional
@@ -231,7 +263,9 @@ def stiffness_map(locations, *, rows=None, n_angles=None, title: str | None = No
     ax.set_xlabel("angular location")
     ax.set_ylabel("row")
     cbar = fig.colorbar(im, ax=ax)
-    cbar.set_label("indenter stiffness [N/m]")
+    exponential = any(isinstance(loc, ExponentialLocationFit) for loc in locations)
+    cbar.set_label("indenter stiffness k0 at contact [N/m]" if exponential
+                   else "indenter stiffness [N/m]")
     if title is None:
         mean, s, n = location_statistics(finite)
         title = (f"Tissue stiffness (indenter), {n} locations: {mean:.0f} \u00b1 {s:.1f} N/m"

@@ -14,6 +14,12 @@ What a hand-held indenter session looks like, made up with a fixed seed:
   Loading therefore follows slope ``(1 - h) k``, every unloading or reloading
   below dmax follows slope ``k``, and the hysteresis ratio
   ``(W_load - W_unload) / W_load`` of a push is exactly ``h``;
+- or, with ``stiffening`` beta > 0 [1/m], a tissue that stiffens: the same dent,
+  with the exponential (Fung-type) law ``F(x) = (k / beta) (exp(beta x) - 1)`` of
+  the compression ``x = max(0, d - h * dmax)`` in place of ``k x``. Every
+  unloading stroke then follows that law exactly, with k the slope at contact and
+  the contact point ``h * dmax`` (loading follows ``F((1 - h) d)``, softer; the
+  hysteresis ratio is then close to, not exactly, ``h``);
 - an encoder with 0.025 mm steps (1/500 inch) and an arbitrary zero;
 - sampling rates of 100 to 500 Hz.
 
@@ -57,12 +63,14 @@ class SynthTrial:
     force : ndarray
         Raw force with offset and noise [N].
     stiffness : float
-        True unloading stiffness [N/m].
+        True unloading stiffness [N/m] (with stiffening: the slope at contact, k0).
     hysteresis : float
-        True hysteresis ratio [-].
+        True hysteresis ratio [-] (with stiffening: the dent fraction h).
     rate : float
         Sampling rate [Hz].
     n_pushes : int
+    stiffening : float
+        True stiffening rate beta [1/m]; 0 for the linear tissue.
     """
 
     location: str
@@ -74,6 +82,7 @@ class SynthTrial:
     hysteresis: float
     rate: float
     n_pushes: int
+    stiffening: float = 0.0
 
 
 def truth_map(seed: int = 4242, rows: str = "ABC", n_angles: int = 7,
@@ -131,7 +140,7 @@ def synth_trial(stiffness: float, *, rate: float = 200.0, seed=None, location: s
                 rest: float | None = None, noise_sd: float | None = None,
                 offset: float | None = None, depth_range=(2.5e-3, 5.0e-3),
                 tremor: float = 0.012e-3, encoder_step: float = ENCODER_STEP,
-                encoder_sign: int = 1) -> SynthTrial:
+                encoder_sign: int = 1, stiffening: float = 0.0) -> SynthTrial:
     """One synthetic hand-held indentation trial with a known unloading stiffness.
 
     Parameters
@@ -162,6 +171,10 @@ def synth_trial(stiffness: float, *, rate: float = 200.0, seed=None, location: s
         Encoder resolution [m]; 0 for none.
     encoder_sign : {1, -1}
         -1 for an encoder that counts away from the arm.
+    stiffening : float
+        Stiffening rate beta >= 0 [1/m] of the exponential tissue
+        ``F = (k / beta) (exp(beta x) - 1)``; 0 (default) the linear tissue
+        (the trial is then the same, draw for draw, as without this option).
 
     Returns
     -------
@@ -169,6 +182,9 @@ def synth_trial(stiffness: float, *, rate: float = 200.0, seed=None, location: s
     """
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
     k = float(stiffness)
+    beta = float(stiffening)
+    if not (np.isfinite(beta) and beta >= 0):
+        raise ValueError(f"stiffening: expected a finite rate >= 0 [1/m], got {stiffening!r}")
     h = rng.uniform(0.04, 0.12) if hysteresis is None else float(hysteresis)
     n_pushes = int(rng.integers(1, 4)) if n_pushes is None else int(n_pushes)
     rest = rng.uniform(3.5, 4.5) if rest is None else float(rest)
@@ -207,7 +223,10 @@ def synth_trial(stiffness: float, *, rate: float = 200.0, seed=None, location: s
     for p in range(n_pushes):
         m = pid == p
         dmax[m] = np.maximum.accumulate(np.maximum(d_true[m], 0.0))
-    f_true = k * np.maximum(0.0, d_true - h * dmax)
+    x_true = np.maximum(0.0, d_true - h * dmax)
+    # the exponential law written out here, not taken from tissue_laws, so that the tests
+    # of the fit check the package's law against an independent formula
+    f_true = k * x_true if beta == 0 else k * np.expm1(beta * x_true) / beta
     force = f_true + offset + noise_sd * rng.standard_normal(n)
 
     x0 = rng.uniform(5e-3, 25e-3)               # encoder zero somewhere on the rail
@@ -216,12 +235,12 @@ def synth_trial(stiffness: float, *, rate: float = 200.0, seed=None, location: s
         x = np.round(x / encoder_step) * encoder_step
     return SynthTrial(location=location, trial=int(trial), time=t, displacement=x,
                       force=force, stiffness=k, hysteresis=float(h), rate=float(rate),
-                      n_pushes=n_pushes)
+                      n_pushes=n_pushes, stiffening=beta)
 
 
 def synth_dataset(truth: dict[str, float], *, seed: int = 0, trials_per_location: int = 2,
                   rates=(100.0, 200.0, 250.0, 500.0), trial_variation: float = 0.015,
-                  **kwargs) -> list[SynthTrial]:
+                  stiffening=0.0, **kwargs) -> list[SynthTrial]:
     """Trials for every location of a truth map.
 
     Parameters
@@ -238,6 +257,9 @@ def synth_dataset(truth: dict[str, float], *, seed: int = 0, trials_per_location
         Trial-to-trial variation of the true stiffness at a location (SD as a
         fraction, as when the indenter sits a little differently each time); the
         deviations are centred so that their mean over the trials is zero [-].
+    stiffening : float or dict
+        Stiffening rate beta [1/m] of the exponential tissue, one for all or
+        element label -> beta (the same for every trial of a location); 0: linear.
     **kwargs
         Passed to :func:`synth_trial`.
 
@@ -256,8 +278,9 @@ def synth_dataset(truth: dict[str, float], *, seed: int = 0, trials_per_location
             eps[:] = 0.0
         for tr in range(1, trials_per_location + 1):
             rate = float(rng.choice(np.asarray(rates, dtype=float)))
+            beta = stiffening[lab] if isinstance(stiffening, dict) else stiffening
             out.append(synth_trial(k * (1.0 + eps[tr - 1]), rate=rate, seed=rng, location=lab,
-                                   trial=tr, **kwargs))
+                                   trial=tr, stiffening=beta, **kwargs))
     return out
 
 

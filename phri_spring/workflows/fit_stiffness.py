@@ -14,6 +14,11 @@ The bundled synthetic recordings (42 trials, 21 locations), fitted and written:
 ...     [p.name for p in write_fit(result, Path(tmp) / "stiffness.csv")]
 ['stiffness.csv']
 
+With ``law="exponential"`` the exponential (Fung-type) law
+F = (k0/beta)(exp(beta (d - d0)) - 1) is fitted to the same unloading strokes
+instead (:mod:`phri_spring.physics.indentation_exponential`): the CSV's stiffness
+is then k0 and it gains the stiffening rate beta [1/m] and its SD over trials.
+
 The method is in :mod:`phri_spring.physics.indentation`; the file formats in
 :mod:`phri_spring.io.indenter`. Nothing here prints: warnings come back in
 ``result.warnings``.
@@ -32,11 +37,16 @@ from ..errors import DataError, UsageError
 from ..io.atomic import atomic_directory, atomic_file, check_output_path, naming
 from ..io.indenter import (STIFFNESS_COLUMNS, SkippedTrial, read_indenter, split_label,
                            write_stiffness_csv, write_trials_csv)
-from ..physics.indentation import (DEFAULT_MAX_SPREAD, DEFAULT_MIN_R2, LocationFit,
-                                   TrialError, fit_location, fit_trial, location_statistics)
+from ..physics.indentation import (DEFAULT_MAX_SPREAD, DEFAULT_MIN_R2, TrialError,
+                                   fit_location, fit_trial, location_statistics)
+from ..physics.indentation_exponential import (ExponentialLocationFit,
+                                               fit_location_exponential,
+                                               fit_trial_exponential)
+from ..physics.tissue_laws import ExponentialLaw
 
 __all__ = ["FitStiffnessResult", "fit_stiffness", "write_fit", "write_plots",
-           "check_fit_outputs", "QUALITY_COLUMNS", "PLOT_FILES"]
+           "check_fit_outputs", "QUALITY_COLUMNS", "PLOT_FILES", "LAWS",
+           "STIFFENING_COLUMNS"]
 
 #: quality columns of the fit CSV, after :data:`~phri_spring.io.indenter.STIFFNESS_COLUMNS`
 QUALITY_COLUMNS = ("n_strokes", "r2_min", "loading_slope_N_per_m", "hysteresis_ratio",
@@ -44,6 +54,11 @@ QUALITY_COLUMNS = ("n_strokes", "r2_min", "loading_slope_N_per_m", "hysteresis_r
                    "flags")
 #: files written by :func:`write_plots`
 PLOT_FILES = ("force_displacement.png", "stiffness_map.png")
+#: the indenter laws :func:`fit_stiffness` fits
+LAWS = ("linear", "exponential")
+#: columns the exponential law adds after the stiffness columns: the column the config reads
+#: for ``tissue.stiffening`` (the law's own ``csv_column``), then its SD over the trials
+STIFFENING_COLUMNS = (ExponentialLaw.parameters[0].csv_column, "stiffening_std_per_m")
 
 
 @dataclass
@@ -53,12 +68,13 @@ class FitStiffnessResult:
     Attributes
     ----------
     input_path : Path
-    locations : list of LocationFit
-        Row-major order (A0, A1, ..., C6).
+    locations : list of LocationFit or ExponentialLocationFit
+        Row-major order (A0, A1, ..., C6); ExponentialLocationFit with the exponential law.
     skipped : list of SkippedTrial
         Trials left out with ``skip_bad_trials``.
     table : pandas.DataFrame
-        The fit CSV (docs/model.md section 7 columns, then :data:`QUALITY_COLUMNS`).
+        The fit CSV (docs/model.md section 7 columns, with the exponential law
+        :data:`STIFFENING_COLUMNS`, then :data:`QUALITY_COLUMNS`).
     trials_table : pandas.DataFrame
         One row per trial.
     warnings : list of str
@@ -76,9 +92,20 @@ class FitStiffnessResult:
     settings: dict = field(default_factory=dict)
 
     @property
+    def law(self) -> str:
+        """The law fitted, ``linear`` or ``exponential``."""
+        return self.settings.get("law", "linear")
+
+    @property
     def stiffness(self) -> np.ndarray:
-        """Location stiffnesses [N/m], row-major."""
+        """Location stiffnesses [N/m] (k0 with the exponential law), row-major."""
         return np.array([loc.stiffness for loc in self.locations], dtype=float)
+
+    @property
+    def stiffening(self) -> np.ndarray:
+        """Location stiffening rates beta [1/m] (0 with the linear law), row-major."""
+        return np.array([getattr(loc, "stiffening", 0.0) for loc in self.locations],
+                        dtype=float)
 
     @property
     def labels(self) -> list:
@@ -91,6 +118,13 @@ class FitStiffnessResult:
     def summary_line(self) -> str:
         """``stiffness over 21 locations: 4242 +- 251.5 N/m (mean +- SD)``."""
         mean, sd, n = self.summary()
+        if self.law == "exponential":
+            b_mean, b_sd, _ = location_statistics(self.stiffening)
+            if n == 1:
+                return (f"exponential law at 1 location: k0 {mean:.0f} N/m, "
+                        f"stiffening {b_mean:.1f} 1/m")
+            return (f"exponential law over {n} locations: k0 {mean:.0f} +- {sd:.1f} N/m, "
+                    f"stiffening {b_mean:.1f} +- {b_sd:.1f} 1/m (mean +- SD)")
         if n == 1:
             return f"stiffness over 1 location: {mean:.0f} N/m"
         return f"stiffness over {n} locations: {mean:.0f} +- {sd:.1f} N/m (mean +- SD)"
@@ -111,7 +145,7 @@ def _positive(value, name: str, allow_none: bool = False):
 def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: float | None = None,
                   displacement_unit: str = "mm", skip_bad_trials: bool = False,
                   min_r2: float = DEFAULT_MIN_R2, max_trial_spread: float = DEFAULT_MAX_SPREAD,
-                  reversal: float | None = None) -> FitStiffnessResult:
+                  reversal: float | None = None, law: str = "linear") -> FitStiffnessResult:
     """Fit the tissue stiffness of every location from indenter recordings.
 
     Parameters
@@ -135,6 +169,11 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
     reversal : float, optional
         Depth reversal that ends a stroke [m]; default
         ``max(0.1 mm, 10 % of the trial's peak depth)``.
+    law : {'linear', 'exponential'}
+        ``linear``: the unloading slope (the paper). ``exponential``: k0 and the
+        stiffening rate beta of F = (k0/beta)(exp(beta (d - d0)) - 1) on the same
+        unloading strokes, d0 free per stroke; a fit that fails or ends on beta's
+        bound is a warning and a flag, not an error.
 
     Returns
     -------
@@ -160,6 +199,8 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
     if displacement_unit not in ("mm", "m"):
         raise UsageError(f"expected 'mm' or 'm', got {displacement_unit!r}",
                          key="displacement_unit")
+    if law not in LAWS:
+        raise UsageError(f"expected one of {', '.join(LAWS)}, got {law!r}", key="law")
     input_path = Path(input_path)
     warnings: list[str] = []
 
@@ -184,7 +225,8 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
             where = f" ({tr.where})" if tr.where else ""
             warnings.append(f"{tr.source}{where}: the displacement decreases into the arm; "
                             "its sign was flipped")
-        by_location.setdefault(tr.location, []).append((tr, fit))
+        efit = fit_trial_exponential(fit) if law == "exponential" else None
+        by_location.setdefault(tr.location, []).append((tr, fit, efit))
         trial_rows.append({
             "location": tr.location, "trial": tr.trial, "file": tr.source,
             "stiffness_N_per_m": fit.stiffness, "n_strokes": fit.n_strokes,
@@ -196,6 +238,8 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
             "sampling_rate_Hz": fit.sampling_rate, "displacement_sign": fit.sign,
             "unloading_slopes_N_per_m": ";".join(f"{s:.6g}" for s in fit.unloading.slope),
         })
+        if efit is not None:
+            trial_rows[-1] = _exponential_trial_row(trial_rows[-1], efit)
 
     skip_lines = []
     for sk in skipped:
@@ -218,43 +262,82 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
     for lab in sorted(set(n_skipped) - set(by_location), key=order):
         warnings.append(f"{lab}: no usable trial; left out of the output")
 
-    locations: list[LocationFit] = []
+    exponential = law == "exponential"
+    locations: list = []
     rows = []
     for lab in sorted(by_location, key=order):
         pairs = sorted(by_location[lab], key=lambda p: p[0].trial)
-        loc = fit_location([p[1] for p in pairs], location=lab,
+        lin = fit_location([p[1] for p in pairs], location=lab,
                            trial_ids=[p[0].trial for p in pairs],
                            min_r2=min_r2, max_spread=max_trial_spread)
+        loc = (fit_location_exponential([p[2] for p in pairs], lin, min_r2=min_r2,
+                                        max_spread=max_trial_spread) if exponential else lin)
         locations.append(loc)
         row, angle = split_label(lab)
+        if exponential:
+            warnings.extend(_exponential_warnings(loc))
         if "low_r2" in loc.flags:
-            worst = int(np.argmin([t.r2_min for t in loc.trials]))
-            warnings.append(f"{lab}: unloading fit R^2 {loc.r2_min:.3f} below {min_r2:g} "
+            what, r2s = (("exponential", [f.r2_min for f in loc.fits]) if exponential
+                         else ("unloading", [t.r2_min for t in loc.trials]))
+            worst = int(np.nanargmin(r2s))
+            warnings.append(f"{lab}: {what} fit R^2 {loc.r2_min:.3f} below {min_r2:g} "
                             f"(trial {loc.trial_ids[worst]})")
         if "trial_spread" in loc.flags:
             ks = ", ".join(f"{k:.0f}" for k in loc.trial_stiffness)
             warnings.append(f"{lab}: trials differ by {loc.spread:.1%} of their mean, more than "
                             f"{max_trial_spread:.1%} ({ks} N/m)")
         if "single_trial" in loc.flags:
-            warnings.append(f"{lab}: one trial only; std_N_per_m left empty")
+            empty = "std_N_per_m and stiffening_std_per_m" if exponential else "std_N_per_m"
+            warnings.append(f"{lab}: one trial only; {empty} left empty")
         rows.append({
             "location": lab, "row": row, "angle_index": angle,
             "stiffness_N_per_m": loc.stiffness, "std_N_per_m": loc.std,
-            "n_trials": loc.n_trials, "n_strokes": loc.n_strokes, "r2_min": loc.r2_min,
-            "loading_slope_N_per_m": loc.loading_slope,
-            "hysteresis_ratio": loc.hysteresis_ratio, "peak_force_N": loc.peak_force,
-            "peak_depth_mm": loc.peak_depth * 1e3, "trial_spread": loc.spread,
+            "n_trials": loc.n_trials, "n_strokes": lin.n_strokes, "r2_min": loc.r2_min,
+            "loading_slope_N_per_m": lin.loading_slope,
+            "hysteresis_ratio": lin.hysteresis_ratio, "peak_force_N": lin.peak_force,
+            "peak_depth_mm": lin.peak_depth * 1e3, "trial_spread": loc.spread,
             "n_trials_skipped": n_skipped.get(lab, 0), "flags": ";".join(loc.flags),
         })
-    table = pd.DataFrame(rows, columns=list(STIFFNESS_COLUMNS) + list(QUALITY_COLUMNS))
+        if exponential:
+            rows[-1].update(zip(STIFFENING_COLUMNS, (loc.stiffening, loc.stiffening_std)))
+    extra = list(STIFFENING_COLUMNS) if exponential else []
+    table = pd.DataFrame(rows, columns=list(STIFFNESS_COLUMNS) + extra + list(QUALITY_COLUMNS))
     trials_table = pd.DataFrame(trial_rows)
     settings = {"zero_window_s": zero_window, "onset_threshold_N": onset_threshold,
                 "displacement_unit": displacement_unit, "skip_bad_trials": skip_bad_trials,
                 "min_r2": min_r2, "max_trial_spread": max_trial_spread,
-                "reversal_m": reversal, "layout": rec.layout}
+                "reversal_m": reversal, "layout": rec.layout, "law": law}
     return FitStiffnessResult(input_path=input_path, locations=locations, skipped=skipped,
                               table=table, trials_table=trials_table, warnings=warnings,
                               settings=settings)
+
+
+def _exponential_trial_row(row: dict, efit) -> dict:
+    """A trials-table row with the exponential fit's k0, beta, contact points and R^2."""
+    out = {}
+    for key, value in row.items():
+        if key == "stiffness_N_per_m":
+            out[key] = efit.k0
+            out[STIFFENING_COLUMNS[0]] = efit.stiffening
+        else:
+            out[key] = efit.r2_min if key == "r2_min" else value
+    out["contact_offsets_mm"] = ";".join(f"{d * 1e3:.6g}" for d in efit.offset)
+    out["fit_status"] = efit.status
+    return out
+
+
+def _exponential_warnings(loc: ExponentialLocationFit) -> list[str]:
+    """One line per trial whose fit failed or ended on beta's bound, one if none converged."""
+    out = []
+    for fit, trial in zip(loc.fits, loc.trial_ids):
+        if fit.status == "failed":
+            out.append(f"{loc.location} trial {trial}: exponential fit failed: {fit.message}; "
+                       "left out of the means")
+        elif fit.status == "at_bound":
+            out.append(f"{loc.location} trial {trial}: exponential fit: {fit.message}")
+    if not loc.n_trials:
+        out.append(f"{loc.location}: no exponential fit converged; its values are left empty")
+    return out
 
 
 def check_fit_outputs(input_path, output, *, plots=None, trials_csv=None) -> None:
@@ -309,8 +392,9 @@ def write_plots(result: FitStiffnessResult, directory, *, dpi: int = 150) -> lis
     """Write :data:`PLOT_FILES` into ``directory`` (created if missing), all or nothing.
 
     ``force_displacement.png``: Fig. 6a-like force-depth curves of every location
-    with the fitted unloading lines; ``stiffness_map.png``: Fig. 6b-like rows x
-    angles heat map with the values written in.
+    with the fitted unloading lines (exponential curves with that law);
+    ``stiffness_map.png``: Fig. 6b-like rows x angles heat map with the values
+    (k0 with the exponential law) written in.
     """
     directory = Path(directory)
     with atomic_directory(directory) as tmp:
@@ -326,7 +410,8 @@ def write_fit(result: FitStiffnessResult, output, *, plots=None, trials_csv=None
     ----------
     result : FitStiffnessResult
     output : str or Path
-        The fit CSV (docs/model.md section 7 columns, then :data:`QUALITY_COLUMNS`).
+        The fit CSV (docs/model.md section 7 columns, with the exponential law
+        :data:`STIFFENING_COLUMNS`, then :data:`QUALITY_COLUMNS`).
     plots : str or Path, optional
         Folder for :data:`PLOT_FILES`.
     trials_csv : str or Path, optional
