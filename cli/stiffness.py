@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
-from ._common import ArmChoice
+from ._common import ArmChoice, info, warn
 
 
 @click.command("stiffness", context_settings={"help_option_names": ["-h", "--help"]})
@@ -17,7 +19,16 @@ from ._common import ArmChoice
               help="Print one JSON object instead of the table: key K is the 6x6 matrix in SI "
                    "units (N/m, N/rad, N*m/m, N*m/rad), rows Fx Fy Fz Mx My Mz, columns "
                    "x y z rx ry rz, at the load-cell origin in the load-cell axes.")
-def stiffness(config, arm, as_json):
+@click.option("--curves", type=click.Path(path_type=Path), default=None, metavar="OUTDIR",
+              help="Also write the force-displacement curves under load along and about each "
+                   "load-cell axis into OUTDIR: stiffness_curves.csv and stiffness_curves.png "
+                   "(with the measured human ranges; docs/stiffness.md).")
+@click.option("--max-force", type=float, default=60.0, show_default=True, metavar="N",
+              help="With --curves: largest force along each axis, both signs [N].")
+@click.option("--max-moment", type=float, default=3.0, show_default=True, metavar="N*M",
+              help="With --curves: largest moment about each axis, both signs [N*m].")
+@click.pass_context
+def stiffness(ctx, config, arm, as_json, curves, max_force, max_moment):
     """Interface stiffness of the cuff on the arm [N/mm, N*m/deg] at the load cell.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). The stiffness
@@ -29,18 +40,48 @@ def stiffness(config, arm, as_json):
     stiffness about the arm axis; compare with human upper-arm interfaces,
     2.1-4.5 N/mm and 0.03-0.04 N*m/deg in torsion (see docs/stiffness.md).
 
+    With --curves, the robot's force (moment) at the load cell is swept from 0
+    to --max-force (--max-moment) along (about) each load-cell axis in both
+    signs, and the motion of the load-cell point is written against it; the
+    slope at zero load is 1/(K^-1)_ii, what a load-controlled test measures.
+
     \b
     Examples:
       phri stiffness configs/harmony_upper_arm.yaml
       phri stiffness configs/human_upper_arm.yaml --arm rigid --json
+      phri stiffness configs/human_upper_arm.yaml --arm coupled --curves curves/
     """
     import json
 
+    from click.core import ParameterSource
+
     from phri_spring.io.config import load_config
+    from phri_spring.workflows.common import model_from_config
     from phri_spring.workflows.stiffness import interface_stiffness_report
 
+    if curves is None:
+        for name in ("max_force", "max_moment"):
+            if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE:
+                raise click.UsageError(f"--{name.replace('_', '-')} needs --curves OUTDIR")
+    else:
+        from phri_spring.workflows.stiffness_curves import check_curves_output
+
+        check_curves_output(curves, [config])          # before the work: a bad path fails fast
     cfg = load_config(config)
-    report = interface_stiffness_report(cfg, arm)
+    model = model_from_config(cfg, arm)
+    report = interface_stiffness_report(cfg, arm, model=model)
+    if curves is not None:
+        from phri_spring.workflows.stiffness_curves import (stiffness_curves,
+                                                            write_stiffness_curves)
+
+        result = stiffness_curves(cfg, arm, max_force=max_force, max_moment=max_moment,
+                                  model=model)
+        if result.failed:
+            warn(f"{result.failed} of {result.converged.size} loaded samples did not converge "
+                 "(NaN in the table, gaps in the figure)")
+        written = write_stiffness_curves(result, curves,
+                                         inputs=[config, *cfg.stiffness_files])
+        info(f"wrote {', '.join(str(p) for p in written)}")
     if as_json:
         click.echo(json.dumps(report.to_dict(), allow_nan=False))
     else:

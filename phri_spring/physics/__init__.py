@@ -18,6 +18,7 @@ No file or config access and no printing happens here. Modules:
 - :mod:`~phri_spring.physics.fe_punch`   flat punch on a bonded layer (indenter stiffness to modulus)
 - :mod:`~phri_spring.physics.fe_reference` direct FE of a rigid cuff (the validation reference)
 - :mod:`~phri_spring.physics.stiffness`  interface stiffness at the load cell
+- :mod:`~phri_spring.physics.load_sweep` load sweeps along and about the load-cell axes (interface curves)
 - :mod:`~phri_spring.physics.indentation` indenter force-displacement analysis (linear fit)
 - :mod:`~phri_spring.physics.indentation_exponential` the exponential-law fit of indenter curves
 - :mod:`~phri_spring.physics.indentation_signal` indenter signal windows (contact, unloading branch)

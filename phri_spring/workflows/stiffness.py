@@ -23,7 +23,7 @@ from ..physics.stiffness import interface_stiffness, principal_stiffness, stiffn
 from . import common
 
 __all__ = ["StiffnessReport", "interface_stiffness_report", "ROWS", "COLUMNS", "SI_UNITS",
-           "PEOPLE_UNITS", "to_people_units", "HUMAN_REFERENCE"]
+           "PEOPLE_UNITS", "to_people_units", "HUMAN_REFERENCE", "check_arm"]
 
 #: rows of K: the wrench components (force, then moment)
 ROWS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
@@ -40,8 +40,13 @@ _COLUMN_FACTOR = np.array([1e-3] * 3 + [math.pi / 180.0] * 3)
 
 #: Human upper-arm interface stiffness measured by Schiebl et al. (2025), Sensors 25(15):4605,
 #: doi:10.3390/s25154605 (21 subjects, linear fits, medians of the subject-group regressions):
-#: translational range [N/mm] and torsion about the arm's long axis [N*m/deg].
+#: translational range [N/mm] and torsion about the arm's long axis [N*m/deg]; by direction,
+#: over both signs of the load (their appendix B linear fits and the 4.5 N/mm median across the
+#: arm): translation along the arm and across it [N/mm], rotation about the two axes across
+#: the arm [N*m/deg] (docs/stiffness.md).
 HUMAN_REFERENCE = {"translational_N_per_mm": (2.1, 4.5), "torsion_Nm_per_deg": (0.03, 0.04),
+                   "along_arm_N_per_mm": (2.1, 2.4), "across_arm_N_per_mm": (2.8, 4.5),
+                   "bending_Nm_per_deg": (0.18, 0.22),
                    "source": "Schiebl et al. 2025, Sensors 25(15):4605"}
 
 
@@ -207,7 +212,15 @@ def _g(value: float, scale: float = 0.0, digits: int = 4) -> str:
     return f"{value:.{digits}g}"
 
 
-def interface_stiffness_report(cfg: Config, arm: str = "compliant") -> StiffnessReport:
+def check_arm(arm: str) -> None:
+    """Raise a UsageError (key ``--arm``) unless ``arm`` is in the arm registry."""
+    if arm not in common.ARMS:
+        raise UsageError(f"unknown arm model {arm!r}; expected one of {', '.join(common.ARMS)}",
+                         key="--arm")
+
+
+def interface_stiffness_report(cfg: Config, arm: str = "compliant", *,
+                               model=None) -> StiffnessReport:
     """The interface stiffness of a config's cuff at its load cell (the tangent at zero wrench).
 
     Parameters
@@ -216,6 +229,9 @@ def interface_stiffness_report(cfg: Config, arm: str = "compliant") -> Stiffness
         A loaded config (:func:`phri_spring.io.config.load_config`).
     arm : str
         One of :data:`phri_spring.workflows.common.ARMS`.
+    model : optional
+        The model of ``cfg`` and ``arm`` if already built
+        (:func:`~phri_spring.workflows.common.model_from_config`); built here otherwise.
 
     Returns
     -------
@@ -230,10 +246,9 @@ def interface_stiffness_report(cfg: Config, arm: str = "compliant") -> Stiffness
     ConvergenceError
         If the equilibrium at zero wrench does not converge.
     """
-    if arm not in common.ARMS:
-        raise UsageError(f"unknown arm model {arm!r}; expected one of {', '.join(common.ARMS)}",
-                         key="--arm")
-    model = common.model_from_config(cfg, arm)
+    check_arm(arm)
+    if model is None:
+        model = common.model_from_config(cfg, arm)
     try:
         K_cuff = interface_stiffness(model, max_iterations=cfg.max_iterations)
     except RuntimeError as exc:
