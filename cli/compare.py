@@ -72,16 +72,11 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
     arm_list = parse_arms(arms)
     check_output_path(output, [config, manifest, tissue_stiffness], option="-o/--output",
                       directory=True)
-    colmap = {}
-    if group is not None:
-        from phri_spring.io.labfiles import LOG_GROUP_KEY
-
-        colmap[LOG_GROUP_KEY] = group
     result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness,
-                         columns=colmap)
+                         group=group)
     if uncertainty is not None:  # computed before anything is written: a failure leaves nothing
         from phri_spring.io.memory_budget import check_draws
-        from phri_spring.workflows.uncertainty import compare_bands, write_compare_bands
+        from phri_spring.workflows.compare_bands import compare_bands, write_compare_bands
 
         # every draw's forces at every condition are held at once (models one at a time)
         check_draws(result.config, "coupled" if "coupled" in result.arms else "compliant",

@@ -104,6 +104,7 @@ def _checked_study(path, scheduler, workers):
     base = load_config(study.config)
     kind, n_local = parse_scheduler(scheduler)
     local = {"pool": workers or default_workers(), "local": n_local}.get(kind, 0)
-    samples = sum(count_rows(f, columns=base.log_columns) or 0 for f in study.loads)
+    samples = sum(count_rows(f, base.log_group, columns=base.log_columns) or 0
+                  for f in study.loads)
     check_design(study, base, local, samples)
     return study

@@ -80,29 +80,29 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     colmap = parse_column_map(columns)
     if group is not None:
         from phri_spring.errors import UsageError
-        from phri_spring.io.labfiles import LOG_GROUP_KEY, lab_format
+        from phri_spring.io.labfiles import lab_format
 
         if lab_format(log) is None:
             raise UsageError("--group applies to .tdms and .mat logs only", key="--group")
-        colmap[LOG_GROUP_KEY] = group
     base = parse_baseline(baseline)
     if uncertainty is not None:
         from phri_spring.workflows.uncertainty import run_cli
         if base.kind == "none":   # (run_cli refuses any other baseline with its own line)
-            config = _check_draws(config, log, output, arm, colmap, uncertainty,
+            config = _check_draws(config, log, output, arm, colmap, group, uncertainty,
                                   uncertainty_sd)
         bar = StderrProgress("simulate --uncertainty", progress_enabled(progress))
         try:
             run = run_cli(config, log, output, arm, str(base), colmap, uncertainty,
-                          uncertainty_sd, seed, progress=bar if bar.enabled else None)
+                          uncertainty_sd, seed, progress=bar if bar.enabled else None,
+                          group=group)
         finally:
             bar.close()
         info(run.summary_line(), quiet)
         return
     pool = None
     if plot is not None:
-        from phri_spring.io.config import LOG_GROUP_KEY, load_config
-        from phri_spring.io.logs import count_rows
+        from phri_spring.io.config import load_config
+        from phri_spring.io.logs import count_rows, reader_options
         from phri_spring.workflows.plotting import MaxPool, check_plot_path
 
         check_plot_path(plot, [log, config, output])
@@ -111,15 +111,15 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         from phri_spring.io.logs import table_format
         from phri_spring.io.memory_budget import plan_stream
 
+        cols_read, group_read = reader_options(config, colmap, group)
         plan_stream(config, arm, chunk_rows, shear=shear, plot=True, log=log,
                     output_format=table_format(output, role="output", option="-o/--output"),
-                    columns={**config.log_columns, **colmap})
-        group_name = colmap.get(LOG_GROUP_KEY, config.log_columns.get(LOG_GROUP_KEY))
-        pool = MaxPool(len(config.labels), total=count_rows(log, group_name))
+                    columns=cols_read, group=group_read)
+        pool = MaxPool(len(config.labels), total=count_rows(log, group_read))
     bar = StderrProgress("simulate", progress_enabled(progress))
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
-                                shear=shear,
+                                group=group, shear=shear,
                                 chunk_rows=chunk_rows, decimals=decimals,
                                 progress=bar if bar.enabled else None, on_chunk=pool)
     finally:
@@ -146,11 +146,11 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
          f"solves/sample on average" + (f"; plot {plot}" if plot else ""), quiet)
 
 
-def _check_draws(config, log, output, arm, colmap, draws, sd):
+def _check_draws(config, log, output, arm, colmap, group, draws, sd):
     """The loaded config, after checking that ``draws`` Monte Carlo draws (a model each when
     the tissue or the tension is drawn) fit in memory: nothing is drawn or written before."""
     from phri_spring.io.config import load_config
-    from phri_spring.io.logs import table_format
+    from phri_spring.io.logs import reader_options, table_format
     from phri_spring.io.memory_budget import check_draws, check_model
     from phri_spring.workflows.uncertainty import parse_sd, uncertain_inputs
 
@@ -158,6 +158,7 @@ def _check_draws(config, log, output, arm, colmap, draws, sd):
     fmt = table_format(output, role="output", option="-o/--output")
     inputs = uncertain_inputs(cfg, **parse_sd(sd))
     check_model(cfg, arm)
+    cols_read, group_read = reader_options(cfg, colmap, group)
     check_draws(cfg, arm, draws, distinct=bool(inputs.tissue_sd.any() or inputs.tension_sd_N > 0),
-                output_format=fmt, log=log, columns={**cfg.log_columns, **colmap})
+                output_format=fmt, log=log, columns=cols_read, group=group_read)
     return cfg

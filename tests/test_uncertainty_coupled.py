@@ -203,7 +203,7 @@ def test_sobol_with_an_evaluation_that_did_not_converge_is_unavailable(monkeypat
     from SALib.sample import sobol as sobol_sample
 
     from phri_spring.io.study import UncertaintySpec
-    from phri_spring.workflows import uncertainty
+    from phri_spring.workflows import design_uncertainty as uncertainty
 
     cfg, loads, inputs = _sobol_setup()
     n_base = 8

@@ -30,7 +30,9 @@ __all__ = ["Config", "load_config", "config_from_dict", "resolve_stiffness", "LO
 
 #: the wrench-log columns of docs/model.md section 7
 LOG_COLUMNS = ("time", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
-#: where a column map carries the group of a TDMS or MAT log (``--group``, ``load_cell.group``)
+#: deprecated: the key under which a column map used to carry a TDMS/MAT log's group; the
+#: readers take ``group=`` now and still honour the key for callers written before
+#: (:func:`phri_spring.io.log_base.take_group`)
 LOG_GROUP_KEY = "@group"
 
 
@@ -222,7 +224,8 @@ class Config:
     loadcell_sign: float
     force_unit: str
     moment_unit: str
-    log_columns: dict = field(default_factory=dict)
+    log_columns: dict = field(default_factory=dict)   # spec name -> the log's column name
+    log_group: Optional[str] = None        # load_cell.group: TDMS group / MAT struct of the log
     pain_threshold_kpa: float = 120.0
     shear_ratio: Optional[float] = None
     strap_tension: float = 15.0
@@ -388,7 +391,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
         loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),
         force_unit=lc.force_unit, moment_unit=lc.moment_unit,
-        log_columns={**lc.columns, **({LOG_GROUP_KEY: lc.group} if lc.group else {})},
+        log_columns=dict(lc.columns), log_group=lc.group or None,
         pain_threshold_kpa=float(root.interface.pain_threshold_kpa),
         shear_ratio=root.interface.shear_ratio, strap_tension=float(st.tension),
         strap_model=st.model,

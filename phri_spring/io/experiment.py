@@ -32,7 +32,8 @@ from typing import Optional, Union
 import numpy as np
 
 from ..errors import ConfigError, ConfigTypeError, DataError
-from .config import LOG_COLUMNS, LOG_GROUP_KEY, load_yaml
+from .config import LOG_COLUMNS, load_yaml
+from .log_base import take_group
 
 __all__ = ["TrialSpec", "Manifest", "TrialData", "load_manifest", "read_trial",
            "WRENCH_COLUMNS", "DEFAULT_BASELINE"]
@@ -290,7 +291,8 @@ def _conditions(values) -> np.ndarray:
 
 
 def read_trial(spec: Union[TrialSpec, str, Path], labels, *, baseline: Optional[str] = None,
-               columns: Optional[dict] = None, row_labels=()) -> TrialData:
+               columns: Optional[dict] = None, row_labels=(),
+               group: Optional[str] = None) -> TrialData:
     """Read one trial table and reduce each condition window to its means.
 
     Parameters
@@ -306,6 +308,9 @@ def read_trial(spec: Union[TrialSpec, str, Path], labels, *, baseline: Optional[
         (the config's ``load_cell.columns``).
     row_labels : sequence of str
         The config's row labels, to recognise an extra element column such as ``D0``.
+    group : str, optional
+        TDMS and MAT tables: the group or struct holding the channels
+        (``--group``, the config's ``load_cell.group``).
 
     Returns
     -------
@@ -331,10 +336,10 @@ def read_trial(spec: Union[TrialSpec, str, Path], labels, *, baseline: Optional[
     labels = tuple(labels)
     if not path.is_file():
         raise DataError("file not found; expected a trial table (CSV)", file=path)
-    df, is_csv = _read_table(path, (columns or {}).get(LOG_GROUP_KEY),
-                             (columns or {}).get("time", "time"))
+    columns, group = take_group(columns, group)
+    df, is_csv = _read_table(path, group, columns.get("time", "time"))
 
-    rename = {v: k for k, v in (columns or {}).items() if k in LOG_COLUMNS}
+    rename = {v: k for k, v in columns.items() if k in LOG_COLUMNS}
     if rename:
         df = df.rename(columns=rename)
     cols = list(df.columns)

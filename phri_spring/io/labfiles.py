@@ -20,9 +20,10 @@ channel of another length than the others, text in a numeric channel, NaN or
 infinity, a group or struct that does not exist, a missing optional package
 (naming the extra to install).
 
-The group travels with the column map under the key :data:`LOG_GROUP_KEY`
-(``--group`` and ``load_cell.group`` put it there), so every function that
-takes a column map takes a group too.
+The group is a parameter of its own (``group=``), passed from ``--group`` or
+``load_cell.group`` (:attr:`phri_spring.io.config.Config.log_group`) beside
+the column map; a map that still carries it under the deprecated
+:data:`LOG_GROUP_KEY` is honoured (:func:`phri_spring.io.log_base.take_group`).
 
 The wrench-log recipes :data:`TDMS` and :data:`MAT` (see
 :class:`phri_spring.io.log_base.LogFormat`) are registered with the CSV and
@@ -39,8 +40,8 @@ from typing import Iterator, Optional
 import numpy as np
 
 from ..errors import DataError
-from .config import LOG_COLUMNS, LOG_GROUP_KEY
-from .log_base import LogFormat, WrenchChunk, check_chunk
+from .config import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401 - deprecated, importable here
+from .log_base import LogFormat, WrenchChunk, check_chunk, take_group
 
 __all__ = ["LAB_FORMATS", "TDMS", "MAT", "lab_format", "iter_lab_log", "lab_row_count",
            "read_lab_frame", "LOG_GROUP_KEY"]
@@ -324,8 +325,8 @@ def _check_lengths(src: _Source, path: Path, names, n: int, ref: str) -> None:
 
 
 # --------------------------------------------------------------------------- wrench logs
-def iter_lab_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 131072,
-                 wanted=LOG_COLUMNS) -> Iterator:
+def iter_lab_log(path, columns: Optional[dict] = None, *, group: Optional[str] = None,
+                 chunk_rows: int = 131072, wanted=LOG_COLUMNS) -> Iterator:
     """Stream a TDMS or MAT wrench log in chunks of ``chunk_rows`` samples.
 
     Parameters
@@ -333,8 +334,10 @@ def iter_lab_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1310
     path : str or path-like
         A ``.tdms`` or ``.mat`` file.
     columns : dict, optional
-        Map from spec names (``time``, ``Fx`` ... ``Mz``) to the file's channel
-        names; may hold the group under :data:`LOG_GROUP_KEY`.
+        Map from spec names (``time``, ``Fx`` ... ``Mz``) to the file's channel names.
+    group : str, optional
+        The TDMS group or MAT struct holding the channels (needed when a TDMS
+        file has several groups; without it a MAT file's top level is read).
     chunk_rows : int
         Samples per chunk (TDMS is read chunk by chunk; a MAT file is loaded whole).
     wanted : sequence of str
@@ -353,8 +356,7 @@ def iter_lab_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1310
         text, NaN or infinity in a channel, no samples, a missing optional package.
     """
     path = Path(path)
-    columns = dict(columns or {})
-    group = columns.pop(LOG_GROUP_KEY, None)
+    columns, group = take_group(columns, group)
     src = _open(path, group)
     try:
         names = []
@@ -396,15 +398,16 @@ def lab_row_count(path, group: Optional[str] = None) -> Optional[int]:
         return None
 
 
-def _count_log_rows(path, columns: Optional[dict] = None) -> Optional[int]:
-    """:func:`lab_row_count` in the group of a column map (see LogFormat.count_rows)."""
-    return lab_row_count(path, (columns or {}).get(LOG_GROUP_KEY))
+def _count_log_rows(path, columns: Optional[dict] = None, *,
+                    group: Optional[str] = None) -> Optional[int]:
+    """:func:`lab_row_count` in the group that is read (see LogFormat.count_rows)."""
+    return lab_row_count(path, take_group(columns, group)[1])
 
 
 def _recipe(source: type) -> LogFormat:
     """The wrench-log recipe of a lab format, from its source class."""
     return LogFormat(source.name, source.suffixes, read=iter_lab_log,
-                     count_rows=_count_log_rows)
+                     count_rows=_count_log_rows, grouped=True)
 
 
 #: National Instruments TDMS wrench logs (npTDMS)

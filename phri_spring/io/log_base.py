@@ -19,9 +19,10 @@ from typing import Callable, Iterator, Optional
 import numpy as np
 
 from ..errors import DataError, UsageError
-from .config import LOG_COLUMNS
+from .config import LOG_COLUMNS, LOG_GROUP_KEY
 
-__all__ = ["LogFormat", "WrenchChunk", "check_chunk", "parse_column_map", "resolve_columns"]
+__all__ = ["LogFormat", "WrenchChunk", "check_chunk", "parse_column_map", "resolve_columns",
+           "take_group", "reader_options"]
 
 
 @dataclass
@@ -46,16 +47,16 @@ class LogFormat:
         Lower-case file extensions, the usual one first (it is the one named
         in the message for an unknown extension).
     read : callable
-        ``read(path, columns, *, chunk_rows, wanted) -> Iterator[WrenchChunk]``:
-        time [s] and the other ``wanted`` columns in the file's units, chunk by
-        chunk. ``columns`` maps spec names to the file's names and may hold the
-        group under :data:`phri_spring.io.config.LOG_GROUP_KEY`. The path is
-        known to exist and not to be a folder.
+        ``read(path, columns, *, chunk_rows, wanted) -> Iterator[WrenchChunk]``
+        (``grouped`` formats also take ``group=``): time [s] and the other
+        ``wanted`` columns in the file's units, chunk by chunk. ``columns`` maps
+        spec names to the file's names. The path is known to exist and not to
+        be a folder.
     count_rows : callable
-        ``count_rows(path, columns) -> int or None``: data rows, best effort
-        (None when they cannot be counted). It takes the same column map as
-        ``read``, so that a file of several groups is counted in the group that
-        is read.
+        ``count_rows(path, columns) -> int or None`` (``grouped`` formats also
+        take ``group=``): data rows, best effort (None when they cannot be
+        counted). It takes the same column map and group as ``read``, so that a
+        file of several groups is counted in the group that is read.
     writer : type, optional
         Sink class the forces table is written through
         (:class:`phri_spring.io.forces_writer.ForcesWriter`); None for the
@@ -66,6 +67,9 @@ class LogFormat:
         returned; needed only when it returns any) and ``close()``; the class's
         ``rounds`` tells whether floats are rounded to the writer's
         ``decimals`` first.
+    grouped : bool
+        Whether the file holds its channels in groups (TDMS groups, MAT
+        structs): only then are ``read`` and ``count_rows`` given the group.
     """
 
     name: str
@@ -73,6 +77,7 @@ class LogFormat:
     read: Callable[..., Iterator[WrenchChunk]]
     count_rows: Callable[..., Optional[int]]
     writer: Optional[type] = None
+    grouped: bool = False
 
 
 def check_chunk(arr: np.ndarray, names, path, *, first: int, unit: str = "row") -> None:
@@ -141,3 +146,26 @@ def resolve_columns(available, mapping: Optional[dict] = None, *, file=None,
                             f"{' ...' if len(available) > 12 else ''}", file=file, key=col)
         out.append(col)
     return out
+
+
+def take_group(columns: Optional[dict], group: Optional[str] = None):
+    """``(column map, group)``: the map without the deprecated group entry, and the group.
+
+    The group is ``group`` when given, else the one a column map written before
+    the readers took ``group=`` carries under
+    :data:`phri_spring.io.config.LOG_GROUP_KEY` (None when neither has one).
+    """
+    columns = dict(columns or {})
+    legacy = columns.pop(LOG_GROUP_KEY, None)
+    return columns, (legacy if group is None else group)
+
+
+def reader_options(cfg, columns: Optional[dict] = None, group: Optional[str] = None):
+    """``(column map, group)`` a config's logs and trial tables are read with.
+
+    The map is ``load_cell.columns`` (``cfg.log_columns``) overridden by
+    ``columns``; the group is ``group``, else the deprecated entry of
+    ``columns`` (:func:`take_group`), else ``load_cell.group`` (``cfg.log_group``).
+    """
+    colmap, group = take_group({**cfg.log_columns, **(columns or {})}, group)
+    return colmap, (cfg.log_group if group is None else group)

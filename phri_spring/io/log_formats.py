@@ -17,9 +17,9 @@ import numpy as np
 
 from ..errors import DataError, UsageError
 from .arrow_formats import CSV, PARQUET
-from .config import LOG_COLUMNS, LOG_GROUP_KEY
+from .config import LOG_COLUMNS
 from .labfiles import MAT, TDMS
-from .log_base import LogFormat, WrenchChunk
+from .log_base import LogFormat, WrenchChunk, take_group
 
 __all__ = ["LOG_FORMATS", "log_format", "format_named", "table_format", "iter_wrench_log",
            "read_wrench_log", "count_rows"]
@@ -82,8 +82,8 @@ def table_format(path, *, role: str = "input", option: Optional[str] = None) -> 
     return log_format(path, role=role, option=option).name
 
 
-def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 131072,
-                    wanted=LOG_COLUMNS) -> Iterator[WrenchChunk]:
+def iter_wrench_log(path, columns: Optional[dict] = None, *, group: Optional[str] = None,
+                    chunk_rows: int = 131072, wanted=LOG_COLUMNS) -> Iterator[WrenchChunk]:
     """Stream a wrench log in chunks of about ``chunk_rows`` rows.
 
     Parameters
@@ -92,8 +92,10 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
         CSV (``.csv``, ``.txt``) or Parquet (``.parquet``, ``.pq``) file, or a
         lab file (``.tdms``, ``.mat``: see :mod:`phri_spring.io.labfiles`).
     columns : dict, optional
-        Map from spec names (``time``, ``Fx`` ... ``Mz``) to the log's names
-        (lab files: also the group, under ``LOG_GROUP_KEY``).
+        Map from spec names (``time``, ``Fx`` ... ``Mz``) to the log's names.
+    group : str, optional
+        Lab files: the TDMS group or MAT struct holding the channels
+        (``--group``, ``load_cell.group``); other formats have none and ignore it.
     chunk_rows : int
         Rows per chunk (CSV chunks follow pyarrow's blocks and are approximate).
     wanted : sequence of str
@@ -115,12 +117,22 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, chunk_rows: int = 1
         raise DataError("file not found; expected a wrench log (.csv or .parquet)", file=path)
     if path.is_dir():
         raise DataError("is a folder; expected a wrench log file", file=path)
-    yield from recipe.read(path, columns, chunk_rows=chunk_rows, wanted=wanted)
+    columns, group = take_group(columns, group)
+    yield from recipe.read(path, columns, chunk_rows=chunk_rows, wanted=wanted,
+                           **_group_of(recipe, group))
 
 
-def read_wrench_log(path, columns: Optional[dict] = None):
-    """Read a whole wrench log: ``(time (m,) [s], wrench (m, 6) [log units])``."""
-    chunks = list(iter_wrench_log(path, columns))
+def _group_of(recipe: LogFormat, group: Optional[str]) -> dict:
+    """The group keyword of a recipe's reader and counter: only grouped formats take one."""
+    return {"group": group} if recipe.grouped else {}
+
+
+def read_wrench_log(path, columns: Optional[dict] = None, *, group: Optional[str] = None):
+    """Read a whole wrench log: ``(time (m,) [s], wrench (m, 6) [log units])``.
+
+    ``columns`` and ``group`` as in :func:`iter_wrench_log`.
+    """
+    chunks = list(iter_wrench_log(path, columns, group=group))
     return (np.concatenate([c.time for c in chunks]),
             np.concatenate([c.wrench for c in chunks]))
 
@@ -136,18 +148,16 @@ def count_rows(path, group: Optional[str] = None, *,
     path : str or path-like
         The log.
     group : str, optional
-        TDMS group or MAT struct. Without it (and without one in ``columns``)
-        a lab file of several groups counts its longest channel of any group.
+        TDMS group or MAT struct, as given to :func:`iter_wrench_log`: passing
+        the same keeps the count in the group that is read. Without it a lab
+        file of several groups counts its longest channel of any group.
     columns : dict, optional
-        The column map the log is read with (:func:`iter_wrench_log`); its
-        group (under ``LOG_GROUP_KEY``) is used when ``group`` is None. Passing
-        the same map to both keeps the count in the group that is read.
+        The column map the log is read with (:func:`iter_wrench_log`).
     """
-    columns = dict(columns or {})
-    if group is not None:
-        columns[LOG_GROUP_KEY] = group
+    columns, group = take_group(columns, group)
     try:
         path = Path(path)
-        return log_format(path).count_rows(path, columns)
+        recipe = log_format(path)
+        return recipe.count_rows(path, columns, **_group_of(recipe, group))
     except Exception:  # noqa: BLE001 - best effort (progress only); reading reports errors
         return None

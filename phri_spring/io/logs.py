@@ -7,7 +7,7 @@ The work is split by job, and this module re-exports the public names so that
   recipe each, and the chunked reader), with the recipes in
   :mod:`phri_spring.io.arrow_formats` (CSV, Parquet) and
   :mod:`phri_spring.io.labfiles` (TDMS, MAT), on
-  :mod:`phri_spring.io.log_base` (the recipe, the chunk, the column map);
+  :mod:`phri_spring.io.log_base` (the recipe, the chunk, the column map and group);
 - writing: :mod:`phri_spring.io.forces_writer`;
 - reading ahead on a thread: :mod:`phri_spring.io.prefetch`.
 """
@@ -15,11 +15,13 @@ The work is split by job, and this module re-exports the public names so that
 from __future__ import annotations
 
 from .forces_writer import ForcesWriter
-from .log_base import LogFormat, WrenchChunk, parse_column_map, resolve_columns
+from .log_base import (LogFormat, WrenchChunk, parse_column_map, reader_options,
+                       resolve_columns, take_group)
 from .log_formats import (LOG_FORMATS, count_rows, format_named, iter_wrench_log, log_format,
                           read_wrench_log, table_format)
 from .prefetch import Prefetch, prefetch
 
 __all__ = ["prefetch", "table_format", "resolve_columns", "iter_wrench_log", "read_wrench_log",
            "count_rows", "ForcesWriter", "WrenchChunk", "parse_column_map", "Prefetch",
-           "LogFormat", "LOG_FORMATS", "log_format", "format_named"]
+           "LogFormat", "LOG_FORMATS", "log_format", "format_named", "reader_options",
+           "take_group"]

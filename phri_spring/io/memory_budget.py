@@ -431,15 +431,17 @@ def check_csv_columns(columns: int, *, what: str, key: str, file=None,
                           file=file, key=key)
 
 
-def log_samples(log, columns=None) -> Optional[int]:
-    """Samples in a log: its metadata or a newline count (None when unknown)."""
+def log_samples(log, columns=None, group: Optional[str] = None) -> Optional[int]:
+    """Samples in a log (in the TDMS/MAT ``group`` read): its metadata or a newline count
+    (None when unknown)."""
     from .logs import count_rows
 
-    return count_rows(log, columns=columns)
+    return count_rows(log, group, columns=columns)
 
 
 def plan_stream(cfg, arm: str, chunk_rows: int, *, output_format: str, shear: bool = False,
-                plot: bool = False, log=None, columns=None, cache_dir=None) -> int:
+                plot: bool = False, log=None, columns=None, cache_dir=None,
+                group: Optional[str] = None) -> int:
     """Rows per chunk for a streamed ``simulate``, or a one-line refusal.
 
     The preferred chunk (:func:`preferred_chunk_rows`) is taken when it fits;
@@ -464,7 +466,7 @@ def plan_stream(cfg, arm: str, chunk_rows: int, *, output_format: str, shear: bo
         probe = estimate(cfg, arm, want, output_format="parquet", shear=shear,
                          samples=_samples_bound(log))
         if probe.terms.get("row groups", 0) > budget.memory // 100:
-            samples = log_samples(log, columns)
+            samples = log_samples(log, columns, group)
 
     def at(rows):
         return estimate(cfg, arm, rows, output_format=output_format, shear=shear, plot=plot,
@@ -520,7 +522,7 @@ def _samples_bound(log) -> Optional[int]:
 
 def check_draws(cfg, arm: str, draws: int, *, distinct: bool,
                 output_format: Optional[str] = None, rows: Optional[int] = None, log=None,
-                columns=None) -> None:
+                columns=None, group: Optional[str] = None) -> None:
     """Refuse Monte Carlo draws whose models and forces cannot fit (``--uncertainty N``).
 
     ``rows``: samples solved at once for every draw (``compare``'s conditions); default the
@@ -533,7 +535,7 @@ def check_draws(cfg, arm: str, draws: int, *, distinct: bool,
                           key=element_key(n_rows, n_angles), file=cfg.path)
     samples = None
     if output_format == "parquet" and log is not None and n * draws > 10_000:
-        samples = log_samples(log, columns)
+        samples = log_samples(log, columns, group)
     est = estimate(cfg, arm, output_format=output_format, columns_per_element=3,
                    extra_columns=3, draws=int(draws), distinct_draws=distinct, draw_rows=rows,
                    samples=samples)

@@ -21,8 +21,10 @@ Fig. 7 shows only the loaded conditions); it stays in ``loads.csv`` and
 ``conditions.csv``.
 
 - :func:`compare` does the analysis and returns a :class:`CompareResult`.
-- :func:`write_compare` writes its tables, figures and ``report.md`` into a
-  folder atomically (a failed run leaves no folder behind).
+- :func:`write_compare` writes its tables, figures and ``report.md``
+  (:mod:`phri_spring.reports.compare_report`) into a folder atomically (a
+  failed run leaves no folder behind).
+- ``--uncertainty``: the Monte Carlo bands are :mod:`.compare_bands`.
 """
 
 from __future__ import annotations
@@ -39,8 +41,10 @@ from ..errors import ConvergenceError, DataError, UsageError
 from ..io.atomic import atomic_directory, check_output_path, naming
 from ..io.config import Config, load_config, resolve_stiffness
 from ..io.experiment import WRENCH_COLUMNS, Manifest, TrialData, load_manifest, read_trial
+from ..io.logs import reader_options
 from ..physics.metrics import mean_and_se, rmse as rmse_eq1, zero_on
 from ..physics.solver import solve
+from ..reports.compare_report import compare_report, summary_markdown as _summary_table
 from .common import ARM_MODELS, cuff_wrench, model_from_config
 
 __all__ = ["compare", "write_compare", "CompareResult", "TrialComparison", "CompareOutputs",
@@ -179,7 +183,8 @@ def _with_tissue(cfg: Config, tissue_stiffness) -> Config:
 
 
 def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT_ARMS,
-            tissue_stiffness=None, columns: Optional[dict] = None) -> CompareResult:
+            tissue_stiffness=None, columns: Optional[dict] = None,
+            group: Optional[str] = None) -> CompareResult:
     """Compare the arm models' predictions (rigid, compliant, coupled) with a sensorized-cuff experiment.
 
     Parameters
@@ -196,6 +201,9 @@ def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT
     columns : dict, optional
         Map from spec names (``time``, ``Fx`` ...) to the trial tables' names;
         merged over the config's ``load_cell.columns``.
+    group : str, optional
+        TDMS and MAT trial tables: the group or struct holding the channels;
+        default the config's ``load_cell.group``.
 
     Returns
     -------
@@ -221,9 +229,8 @@ def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT
         cfg = _with_tissue(cfg, tissue_file)
     man = manifest if isinstance(manifest, Manifest) else load_manifest(manifest)
     models = {arm: model_from_config(cfg, arm) for arm in arms}
-    colmap = dict(cfg.log_columns)
-    colmap.update(columns or {})
-    datas = [read_trial(t, cfg.labels, columns=colmap, row_labels=cfg.row_labels)
+    colmap, group = reader_options(cfg, columns, group)
+    datas = [read_trial(t, cfg.labels, columns=colmap, row_labels=cfg.row_labels, group=group)
              for t in man.trials]
     if not any(len(d.conditions) > 1 for d in datas):
         raise DataError("no trial has a condition besides its baseline; nothing to compare",
@@ -356,55 +363,27 @@ def _conditions_frame(trials, arms, pd):
 
 
 # --------------------------------------------------------------------------- report
-def _fmt(x, digits=2) -> str:
-    return "n/a" if x is None or not np.isfinite(x) else f"{x:.{digits}f}"
-
-
 def summary_markdown(result: CompareResult) -> str:
     """The summary as a Markdown table: one line per experiment, direction and condition.
 
     Columns: experiment, direction, condition, load [N], then per arm model
-    ``<arm> RMSE [N]`` as mean +- standard error, and the number of trials.
+    ``<arm> RMSE [N]`` as mean +- standard error, and the number of trials
+    (:func:`phri_spring.reports.compare_report.summary_markdown`).
     """
-    s = result.summary
-    arms = result.arms
-    head = ["experiment", "direction", "condition", "load [N]"] + \
-        [f"{a} RMSE [N], mean ± SE" for a in arms] + ["trials"]
-    lines = ["| " + " | ".join(head) + " |",
-             "|" + "|".join(["---"] * 3 + ["---:"] * (len(arms) + 2)) + "|"]
-    keys = list(dict.fromkeys(zip(s["experiment"], s["direction"], s["condition"])))
-    for exp, direc, cond in keys:
-        g = s[(s["experiment"] == exp) & (s["direction"] == direc) & (s["condition"] == cond)]
-        cells = [str(exp), str(direc), str(cond), _fmt(float(g["load_N"].iloc[0]), 1)]
-        n = 0
-        for arm in arms:
-            a = g[g["arm"] == arm]
-            if len(a):
-                cells.append(f"{_fmt(float(a['mean_rmse_N'].iloc[0]), 3)} ± "
-                             f"{_fmt(float(a['se_rmse_N'].iloc[0]), 3)}")
-                n = max(n, int(a["n_trials"].iloc[0]))
-            else:
-                cells.append("")
-        cells.append(str(n))
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+    return _summary_table(result.summary, result.arms)
 
 
-def _rmse_markdown(result: CompareResult) -> str:
-    arms = result.arms
-    head = ["experiment", "direction", "trial", "condition", "load [N]"] + \
-        [f"{a} RMSE [N]" for a in arms]
-    lines = ["| " + " | ".join(head) + " |",
-             "|" + "|".join(["---"] * 4 + ["---:"] * (len(arms) + 1)) + "|"]
+def _rmse_rows(result: CompareResult) -> list:
+    """``(experiment, direction, trial, condition, load [N], {arm: RMSE [N]})`` of every
+    trial and loaded condition, for the report."""
+    rows = []
     for tc in result.trials:
         s = tc.spec
         for j, c in enumerate(tc.conditions):
-            if j == tc.baseline_index:
-                continue
-            cells = [s.experiment, s.direction, str(s.trial), c, _fmt(tc.load_n[j], 1)] + \
-                [_fmt(float(tc.rmse[a][j]), 3) for a in arms]
-            lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+            if j != tc.baseline_index:
+                rows.append((s.experiment, s.direction, s.trial, c, tc.load_n[j],
+                             {a: tc.rmse[a][j] for a in result.arms}))
+    return rows
 
 
 _SAFE = re.compile(r"[^A-Za-z0-9._-]+")
@@ -525,63 +504,11 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
             jobs.sort(key=lambda j: (j[0] == "heatmap", _scale(j[2]) if j[0] == "heatmap"
                                      else 0.0))
             render_figures(jobs, dpi, workers=workers, local=local)
-        (tmp / "report.md").write_text(_report(result, fig_index, figures), encoding="utf-8")
+        report = compare_report(
+            cfg, result.manifest, arms=result.arms, n_trials=len(result.trials),
+            baselines=sorted({t.spec.baseline for t in result.trials}),
+            tissue_stiffness_file=result.tissue_stiffness_file, summary=result.summary,
+            rmse_rows=_rmse_rows(result), figures=figures, fig_index=fig_index)
+        (tmp / "report.md").write_text(report, encoding="utf-8")
         written.append(outdir / "report.md")
     return CompareOutputs(outdir=outdir, files=written)
-
-
-def _report(result: CompareResult, fig_index, figures: bool) -> str:
-    cfg, man = result.config, result.manifest
-    bases = sorted({t.spec.baseline for t in result.trials})
-    tissue = (f"`{result.tissue_stiffness_file}` (replacing the config's map)"
-              if result.tissue_stiffness_file else "from the config")
-    lines = [
-        "# phri compare: rigid- vs compliant-arm predictions against the sensorized cuff",
-        "",
-        f"- config: `{cfg.path}`" + (f" ({cfg.name})" if cfg.name else ""),
-        f"- experiment manifest: `{man.path}`" +
-        (f": {man.description.strip()}" if man.description.strip() else ""),
-        f"- trials: {len(result.trials)}; elements: {len(cfg.labels)} "
-        f"({cfg.labels[0]}..{cfg.labels[-1]}); arm models: {', '.join(result.arms)}",
-        f"- tissue stiffness: {tissue}",
-        f"- baseline condition(s): {', '.join(bases)}",
-        "",
-        "Method: each condition's measured loads and wrench are the means over its rows; the "
-        "simulated loads are the model's output at that mean wrench. Both sides are zeroed on "
-        "their own baseline condition (measured minus measured at the baseline, simulated minus "
-        "simulated at the baseline's mean wrench). RMSE = sqrt(sum_e (F_expt,e - F_sim,e)^2 / N) "
-        f"with N = {len(cfg.labels)} elements (paper Eq. 1); SE = sample SD / sqrt(n trials). "
-        "The baseline condition is not listed: its zeroed loads are 0 on both sides, so its RMSE "
-        "is 0 by construction (it is kept in `loads.csv` and `conditions.csv`). The load is the "
-        "magnitude of the condition's mean force minus the baseline's.",
-        "",
-        "## Summary (mean ± standard error over trials)",
-        "",
-        summary_markdown(result),
-        "",
-    ]
-    if figures and len(result.summary):
-        lines += ["![RMSE per condition and arm model (Fig. 7)](rmse_bars.png)", ""]
-    lines += ["## RMSE per trial", "", _rmse_markdown(result), ""]
-    if figures:
-        lines += ["## Figures per trial", "",
-                  "Heat maps: zeroed loads measured | rigid | compliant, rows by angular "
-                  "locations, one colour scale per figure (Fig. 8b). Wrench: the load-cell "
-                  "reading over time with the condition windows shaded (Fig. 8a).", "",
-                  "| experiment | direction | trial | wrench | heat maps |",
-                  "|---|---|---|---|---|"]
-        for s, wpath, heat in fig_index:
-            links = ", ".join(f"[{c}]({p})" for c, p in heat)
-            lines.append(f"| {s.experiment} | {s.direction} | {s.trial} | [wrench]({wpath}) | "
-                         f"{links} |")
-        lines.append("")
-    lines += ["## Files", "",
-              "- `rmse.csv`: experiment, direction, condition, trial, arm, rmse_N [N], load_N [N]",
-              "- `summary.csv`: experiment, direction, condition, arm, mean_rmse_N [N], "
-              "se_rmse_N [N], n_trials, load_N [N]",
-              "- `loads.csv`: per trial, condition and element: zeroed measured_N and "
-              "<arm>_N, absolute *_abs_N [N], the condition's mean wrench Fx..Mz "
-              f"[{cfg.force_unit}, {cfg.moment_unit}], load_N, n_samples",
-              "- `conditions.csv`: per trial and condition: n_samples, mean and zeroed wrench, "
-              "load_N, rmse_<arm>_N", ""]
-    return "\n".join(lines)

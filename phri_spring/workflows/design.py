@@ -80,8 +80,8 @@ def prepare_study(study_path) -> tuple:
 
     study = load_study(study_path) if not isinstance(study_path, Study) else study_path
     base = load_config(study.config)
-    loads = load_set(study.loads, base.log_columns, force_tol=study.merge_force_N,
-                     moment_tol=study.merge_moment_Nm)
+    loads = load_set(study.loads, base.log_columns, group=base.log_group,
+                     force_tol=study.merge_force_N, moment_tol=study.merge_moment_Nm)
     values, configs = build_designs(study, base)
     return study, base, loads, values, configs
 
@@ -157,7 +157,7 @@ def run_study(study_path, outdir, *, scheduler: Optional[str] = None,
     result.compute_seconds = float(sum(float(done[b]["seconds"]) for b, _ in todo))
     result.map_seconds = map_seconds
     if study.uncertainty is not None and result.best >= 0:
-        from .uncertainty import study_uncertainty
+        from .design_uncertainty import study_uncertainty
 
         result.uncertainty = study_uncertainty(configs[result.best], loads, study.arm,
                                                study.uncertainty, study.objectives)

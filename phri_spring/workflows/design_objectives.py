@@ -72,7 +72,7 @@ def _merge_rows(w: np.ndarray):
 
 
 def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
-             moment_tol: float = 0.0) -> LoadSet:
+             moment_tol: float = 0.0, group: Optional[str] = None) -> LoadSet:
     """Read wrench logs and merge identical (or, with tolerances, near-identical) rows.
 
     Parameters
@@ -81,6 +81,8 @@ def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
         Wrench logs (CSV or Parquet, docs/model.md section 7), in the config's units.
     columns : dict, optional
         Column map (the config's ``load_cell.columns``).
+    group : str, optional
+        TDMS group or MAT struct of lab-file logs (the config's ``load_cell.group``).
     force_tol, moment_tol : float
         0 (default): merge identical rows only (exact). Otherwise rows are
         snapped to a grid of this spacing [N], [N*m] (in the log's units) and
@@ -95,7 +97,7 @@ def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
     files = tuple(Path(f) for f in files)
     if not files:
         raise DataError("expected at least one wrench log", key="loads")
-    parts = [read_wrench_log(f, columns)[1] for f in files]
+    parts = [read_wrench_log(f, columns, group=group)[1] for f in files]
     w = np.concatenate(parts) if len(parts) > 1 else parts[0]
     if len(w) == 0:
         raise DataError("the load set is empty; expected at least one sample", key="loads")
@@ -129,8 +131,7 @@ def evaluate_design(cfg: Config, loads: LoadSet, arm: str) -> dict:
     w = loads.weights
     bad = ~np.asarray(sol.converged, dtype=bool)
     n_bad = int(w[bad].sum())
-    inv_area_kpa = 1.0 / (1000.0 * model.areas)
-    pressure = np.multiply(sol.forces, inv_area_kpa, out=sol.forces)  # (k, n) kPa, in place
+    pressure = np.multiply(sol.forces, model.inv_area_kpa, out=sol.forces)  # (k, n) kPa, in place
     solved = SolvedLoadSet(pressure, sol.contact, sol.u, model.geometry.points, w,
                            loads.n_samples, model.pain_threshold_kpa,
                            _principal_stiffness(model, cfg))

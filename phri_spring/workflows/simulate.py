@@ -2,15 +2,21 @@
 
 One pipeline: a log is solved chunk by chunk (:func:`_solve_chunk`, the only
 place that turns a chunk of load-cell readings into forces and the extra
-columns); :func:`simulate` is that applied once to arrays in memory, and
-:func:`simulate_file` applies it to every chunk of a CSV/Parquet log, hands each
-chunk to a writer (bounded memory, written atomically) and adds the summary up
-in a :class:`SummaryAccumulator`.
+columns, :func:`per_sample_extras` the only one that turns forces into peak
+pressure and its ratio to the pain threshold); :func:`simulate` is that
+applied once to arrays in memory, and :func:`simulate_file` applies it to every
+chunk of a log, hands each chunk to a writer (bounded memory, written
+atomically) and adds the summary up in a :class:`SummaryAccumulator`. What a
+streamed run over a log needs before solving (the config, the output checks,
+the column map and group, the baseline, the chunked reader, the writer) is a
+:class:`LogRun` (:func:`open_log_run`), which ``simulate --uncertainty``
+(:mod:`phri_spring.workflows.uncertainty`) shares.
 """
 
 from __future__ import annotations
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Optional, Union
@@ -20,7 +26,8 @@ import numpy as np
 from ..errors import ConvergenceError, DataError, UsageError
 from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
-from ..io.logs import ForcesWriter, count_rows, iter_wrench_log, prefetch, table_format
+from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
+                       table_format)
 from ..physics.model import SpringModel
 from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
@@ -29,8 +36,7 @@ from .plotting import MaxPool
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
-           "shear_columns",
-           "per_sample_extras"]
+           "shear_columns", "per_sample_extras", "LogRun", "open_log_run"]
 
 #: extra per-sample columns of the forces table, after the element labels, with their types
 #: (docs/model.md section 7): counts, kPa, an element label, a ratio, a count, a flag
@@ -130,6 +136,10 @@ class SimulationResult:
 
 def per_sample_extras(model: SpringModel, absolute_forces, contact, iterations, converged):
     """The extra columns of the forces table, from absolute (un-zeroed) forces.
+
+    The peak pressure [kPa] of a sample is its largest force over its element's
+    area (``model.inv_area_kpa``), and its ratio to ``model.pain_threshold_kpa``
+    [-]; both are NaN where the sample did not converge.
 
     Returns ``(extras, peak_index)``; ``extras["peak_pressure_element"]`` is
     ``(indices, labels)`` (dictionary-encoded).
@@ -307,13 +317,95 @@ class SimulateSummary:
     labels: tuple
 
 
-def _window_mean(log, columns, base: Baseline, chunk_rows: int) -> np.ndarray:
+@dataclass(frozen=True)
+class LogRun:
+    """A wrench log streamed into a table, set up and checked before anything is solved.
+
+    Made by :func:`open_log_run`; ``simulate`` and ``simulate --uncertainty``
+    read and write through it.
+
+    Attributes
+    ----------
+    cfg : Config
+    log : path
+        The wrench log (CSV, Parquet, TDMS or MAT).
+    output : Path
+        The table to write (CSV or Parquet by its extension).
+    out_fmt : str
+        ``'csv'`` or ``'parquet'``.
+    columns : dict
+        Spec name -> the log's column name: ``load_cell.columns``, overridden by
+        the run's own.
+    group : str or None
+        TDMS group or MAT struct read: the run's own, else ``load_cell.group``.
+    baseline : Baseline
+    """
+
+    cfg: Config
+    log: object
+    output: Path
+    out_fmt: str
+    columns: dict
+    group: Optional[str]
+    baseline: Baseline
+
+    def chunks(self, chunk_rows: Optional[int] = None):
+        """The log in chunks of about ``chunk_rows`` rows (default: the reader's), as
+        :func:`~phri_spring.io.logs.iter_wrench_log` yields them."""
+        size = {} if chunk_rows is None else {"chunk_rows": chunk_rows}
+        return iter_wrench_log(self.log, self.columns, group=self.group, **size)
+
+    def count(self) -> Optional[int]:
+        """Rows of the log (in the group read), best effort: for progress only."""
+        return count_rows(self.log, self.group, columns=self.columns)
+
+    @contextmanager
+    def writer(self, labels, extra_types: dict, *, decimals: Optional[int] = 6):
+        """A :class:`~phri_spring.io.logs.ForcesWriter` into a temporary file that
+        replaces ``output`` only when the block ends without an error."""
+        with atomic_file(self.output) as tmp:
+            with ForcesWriter(tmp, self.out_fmt, labels, extra_types,
+                              decimals=decimals) as writer:
+                yield writer
+
+
+def open_log_run(config, log, output, *, baseline: Union[str, Baseline, None] = "none",
+                 columns: Optional[dict] = None, group: Optional[str] = None) -> LogRun:
+    """Check a streamed run's output and inputs and set up its reading (nothing written).
+
+    Parameters
+    ----------
+    config : Config or path
+    log, output : path
+    baseline : str or Baseline
+        See :func:`parse_baseline`.
+    columns : dict, optional
+        Merged over ``load_cell.columns``.
+    group : str, optional
+        TDMS group or MAT struct; default ``load_cell.group``.
+
+    Raises
+    ------
+    UsageError
+        An output of unknown type, or one that is an input; a bad baseline.
+    """
+    output = Path(output)
+    out_fmt = table_format(output, role="output", option="-o/--output")
+    cfg = _as_config(config)
+    check_output_path(output, [log, cfg.path, *cfg.stiffness_files], option="-o/--output")
+    base = parse_baseline(baseline)
+    colmap, group = reader_options(cfg, columns, group)
+    return LogRun(cfg, log, output, out_fmt, colmap, group, base)
+
+
+def _window_mean(run: LogRun, chunk_rows: int) -> np.ndarray:
     """Mean load-cell wrench over the baseline window (one streaming pass, stops early)."""
+    base = run.baseline
     total = np.zeros(6)
     count = 0
     t_first = None
     t_min, t_max = math.inf, -math.inf
-    for ch in iter_wrench_log(log, columns, chunk_rows=chunk_rows):
+    for ch in run.chunks(chunk_rows):
         if t_first is None:
             t_first = float(ch.time[0])
         t_min, t_max = min(t_min, float(ch.time.min())), max(t_max, float(ch.time.max()))
@@ -325,12 +417,13 @@ def _window_mean(log, columns, base: Baseline, chunk_rows: int) -> np.ndarray:
             break
     if count == 0:
         raise DataError(f"no sample in the baseline window {base} (the log spans "
-                        f"{t_min:g} to {t_max:g} s)", file=log, key="--baseline")
+                        f"{t_min:g} to {t_max:g} s)", file=run.log, key="--baseline")
     return total / count
 
 
 def simulate_file(config, log, output, *, arm: str = "compliant",
                   baseline: Union[str, Baseline, None] = "none", columns: Optional[dict] = None,
+                  group: Optional[str] = None,
                   chunk_rows: int = 65536, decimals: Optional[int] = 6, shear: bool = False,
                   cache_dir=None,
                   progress: Optional[Callable[[int, Optional[int]], None]] = None,
@@ -342,7 +435,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     ----------
     config : Config or path
     log : path
-        Wrench log, CSV or Parquet (docs/model.md section 7).
+        Wrench log: CSV, Parquet, TDMS or MAT (docs/model.md section 7).
     output : path
         Forces file; CSV or Parquet by its extension. Written to a temporary file
         beside it and renamed at the end: a failed run leaves nothing behind.
@@ -350,6 +443,8 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         See :func:`simulate`.
     columns : dict, optional
         Map from spec names to the log's column names; merged over ``load_cell.columns``.
+    group : str, optional
+        TDMS group or MAT struct holding the log's channels; default ``load_cell.group``.
     chunk_rows : int
         Samples per chunk (bounds memory): a hint, capped at about 4 M values per chunk
         and lowered when the machine's memory is short
@@ -374,37 +469,28 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         The run cannot fit in this machine's memory even in small chunks, or its CSV
         table would be wider than pyarrow's CSV writer allows; nothing is written.
     """
-    output = Path(output)
-    out_fmt = table_format(output, role="output", option="-o/--output")
-    cfg = _as_config(config)
-    check_output_path(output, [log, cfg.path, *cfg.stiffness_files], option="-o/--output")
-    base = parse_baseline(baseline)
-    colmap = dict(cfg.log_columns)
-    colmap.update(columns or {})
+    run = open_log_run(config, log, output, baseline=baseline, columns=columns, group=group)
+    cfg, base = run.cfg, run.baseline
     # rows per chunk: the hint, capped so that a fine mesh's chunk stays about 32 MB, and
     # fewer when memory is short; a run that cannot fit is refused here, before any output
-    rows = plan_stream(cfg, arm, chunk_rows, output_format=out_fmt, shear=shear,
-                       plot=isinstance(on_chunk, MaxPool), log=log, columns=colmap,
-                       cache_dir=cache_dir)
+    rows = plan_stream(cfg, arm, chunk_rows, output_format=run.out_fmt, shear=shear,
+                       plot=isinstance(on_chunk, MaxPool), log=log, columns=run.columns,
+                       group=run.group, cache_dir=cache_dir)
     model = model_from_config(cfg, arm, cache_dir=cache_dir)
 
-    mean_lc = _window_mean(log, colmap, base, rows) if base.kind in ("first", "window") \
-        else None
+    mean_lc = _window_mean(run, rows) if base.kind in ("first", "window") else None
     f_base = _baseline_forces(model, cfg, base, mean_lc, cfg.max_iterations)
-    # the same column map as the reader: a TDMS/MAT log counts the rows of the group read
-    total = count_rows(log, columns=colmap) if progress is not None else None
+    total = run.count() if progress is not None else None
 
     # (chunk, wrench on the cuff): the transform runs on the reader thread when there is one
-    chunks = ((ch, cuff_wrench(cfg, ch.wrench))
-              for ch in iter_wrench_log(log, colmap, chunk_rows=rows))
+    chunks = ((ch, cuff_wrench(cfg, ch.wrench)) for ch in run.chunks(rows))
     if table_format(log) == "parquet":
-        # Parquet is read ahead on a thread (measured: a few % faster), started now so
-        # that the first row group is decoded while the writer opens; CSV parsing ahead
-        # competes with the CSV writer's threads (measured: 11 % slower)
+        # Parquet is read ahead on a thread, started now so that the first row group is
+        # decoded while the writer opens; CSV is not: parsing ahead would compete with
+        # the CSV writer's threads
         chunks = prefetch(chunks)
     try:
-        return _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total,
-                       on_chunk, shear)
+        return _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear)
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
@@ -449,8 +535,8 @@ class SummaryAccumulator:
                                baseline_forces=baseline_forces, labels=self.labels)
 
 
-def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, total, on_chunk,
-            shear):
+def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear):
+    cfg = run.cfg
     acc = SummaryAccumulator(model.labels)
     cache = FactorCache()  # one run, one model: factorisations reused across chunks
 
@@ -462,22 +548,20 @@ def _stream(cfg, model, chunks, output, out_fmt, f_base, decimals, progress, tot
             return extras
         return compute
 
-    with atomic_file(output) as tmp:
-        with ForcesWriter(tmp, out_fmt, model.labels,
-                          _extra_arrow_types(model.labels if shear else ()),
-                          decimals=decimals) as writer:
-            for number, (ch, W) in enumerate(chunks):
-                chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
-                acc.add_solution(chunk.solution)
-                job = extras_job(number, ch.time, chunk)
-                if on_chunk is not None:  # the observer needs the extras now, in order
-                    extras = job()
-                    on_chunk(ch.time, chunk.solution.forces, extras["peak_pressure_kPa"])
-                    job = extras
-                writer.write(ch.time, chunk.forces, job)
-                if progress is not None:
-                    progress(acc.samples, total)
-    return acc.summary(output, f_base)
+    with run.writer(model.labels, _extra_arrow_types(model.labels if shear else ()),
+                    decimals=decimals) as writer:
+        for number, (ch, W) in enumerate(chunks):
+            chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
+            acc.add_solution(chunk.solution)
+            job = extras_job(number, ch.time, chunk)
+            if on_chunk is not None:  # the observer needs the extras now, in order
+                extras = job()
+                on_chunk(ch.time, chunk.solution.forces, extras["peak_pressure_kPa"])
+                job = extras
+            writer.write(ch.time, chunk.forces, job)
+            if progress is not None:
+                progress(acc.samples, total)
+    return acc.summary(run.output, f_base)
 
 
 def _extra_arrow_types(shear_labels=()) -> dict:

@@ -45,7 +45,11 @@ from ..io.config import Config
 
 __all__ = ["UncertainInputs", "uncertain_inputs", "parse_sd", "draw_configs", "tissue_route",
            "modulus_sd", "perturbed_inputs", "perturbed_text", "reaches_model",
-           "sobol_inputs", "config_at", "check_fe_cache"]
+           "sobol_inputs", "config_at", "check_fe_cache", "PERCENTILES"]
+
+#: percentiles over the draws that every Monte Carlo reports (simulate, compare bands,
+#: a study's best design) [%]
+PERCENTILES = (5.0, 50.0, 95.0)
 
 
 @dataclass(frozen=True)

@@ -45,32 +45,47 @@ def _write_config(folder: Path, count: int, name: str = "cfg.yaml", **kw) -> Pat
     return path
 
 
+#: Starts ``phri`` from a small, fresh Python process and reports the child's own peak RSS.
+#: The peak a parent reads with wait4 includes the pages the child had before exec; forked
+#: straight from pytest (hundreds of MB late in a full run) that would be pytest's size,
+#: not phri's. Forked from this launcher it is the launcher's few MB at most.
+_LAUNCHER = """
+import os, resource, signal, sys
+limit, report = int(sys.argv[1]), sys.argv[2]
+pid = os.fork()
+if pid == 0:
+    if limit > 0:
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+    os.execvp(sys.argv[3], sys.argv[3:])
+_, status, usage = os.wait4(pid, 0)
+with open(report, "w") as f:
+    f.write(str(usage.ru_maxrss * 1024))
+if os.WIFSIGNALED(status):
+    signal.signal(os.WTERMSIG(status), signal.SIG_DFL)
+    os.kill(os.getpid(), os.WTERMSIG(status))
+os._exit(os.waitstatus_to_exitcode(status))
+"""
+
+
 def _run(*args, env=None, address_space=None, timeout=300):
     """``phri ARGS`` as a real process: (Run, seconds, its own peak RSS [bytes])."""
     full_env = dict(os.environ)
     full_env.pop(ENV_LIMIT, None)
     full_env.update(env or {})
-
-    def pre():
-        if address_space is not None:
-            resource.setrlimit(resource.RLIMIT_AS, (address_space, address_space))
-
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err, \
+            tempfile.TemporaryDirectory() as tmp:
+        report = os.path.join(tmp, "peak")
         t0 = time.monotonic()
-        proc = subprocess.Popen(command(*args), stdout=out, stderr=err, env=full_env,
-                                text=True, preexec_fn=pre)
-        try:
-            _, status, usage = os.wait4(proc.pid, 0)
-        except BaseException:
-            proc.kill()
-            raise
+        proc = subprocess.run([sys.executable, "-c", _LAUNCHER, str(address_space or 0), report,
+                               *command(*args)], stdout=out, stderr=err, env=full_env,
+                              text=True, timeout=timeout)
         seconds = time.monotonic() - t0
-        proc.returncode = os.waitstatus_to_exitcode(status)
         out.seek(0)
         err.seek(0)
         run = Run(proc.returncode, out.read(), err.read())
+        peak = int(open(report).read())
     assert run.code >= 0, f"phri ended by signal {-run.code}: {run.stderr}"
-    return run, seconds, usage.ru_maxrss * 1024
+    return run, seconds, peak
 
 
 @pytest.fixture(autouse=True)
@@ -93,12 +108,11 @@ def test_three_million_elements_refused_at_once(inputs, out, arm, name):
     target = out / name
     target.write_bytes(b"an existing output\n")
     before = snapshot(target)
-    run, seconds, peak = _run("simulate", cfg, inputs["log_csv"], "-o", target, "--arm", arm)
+    run, _, peak = _run("simulate", cfg, inputs["log_csv"], "-o", target, "--arm", arm)
     assert_fault(run, 1, r"geometry\.angles\.count", "3,000,000 elements", before=before,
                  folders=[out])
     assert sorted(p.name for p in out.iterdir()) == sorted(["cfg.yaml", name])
-    # refused from the estimate: the model alone would take 3 GB and minutes to solve
-    assert seconds < 30, seconds
+    # refused from the estimate, before the model (3 GB) is built
     assert peak < 1.5e9, peak
 
 
@@ -125,10 +139,10 @@ def test_every_command_refuses_a_model_too_big(inputs, out, command_args):
     cfg = _write_config(out, 1_000_000, step=0.00035)
     args = [a.format(cfg=cfg, log=inputs["log_csv"], out=out, manifest=inputs["manifest"])
             for a in command_args]
-    run, seconds, _ = _run(*args, env={ENV_LIMIT: "2G"})
+    run, _, peak = _run(*args, env={ENV_LIMIT: "2G"})
     assert_fault(run, 1, r"geometry\.angles\.count", folders=[out])
     assert sorted(p.name for p in out.iterdir()) == ["cfg.yaml"]
-    assert seconds < 30, seconds
+    assert peak < 1.5e9, peak          # refused before the model was built
 
 
 def test_a_count_beyond_any_machine_is_refused_before_the_labels(out, inputs):
@@ -137,7 +151,7 @@ def test_a_count_beyond_any_machine_is_refused_before_the_labels(out, inputs):
     run, seconds, peak = _run("simulate", cfg, inputs["log_csv"], "-o", out / "f.csv")
     assert_fault(run, 1, r"geometry\.angles\.count", "3,000,000,000,000 elements", "PB",
                  folders=[out])
-    assert seconds < 20 and peak < 5e8, (seconds, peak)
+    assert peak < 5e8, peak
 
 
 def test_many_rows_name_the_rows(out, inputs, monkeypatch):
@@ -213,11 +227,11 @@ def test_plot_counts_in_the_estimate(inputs, out, monkeypatch):
 @pytest.mark.parametrize("args", [("--uncertainty", "99999999999999999999"),
                                   ("--uncertainty", "1000000", "--uncertainty-sd", "tissue=0.1")])
 def test_too_many_draws(inputs, out, args):
-    run, seconds, _ = _run("simulate", inputs["cfg"], inputs["log_csv"], "-o", out / "f.csv",
-                           *args, env={ENV_LIMIT: "4G"})
+    run, _, peak = _run("simulate", inputs["cfg"], inputs["log_csv"], "-o", out / "f.csv",
+                        *args, env={ENV_LIMIT: "4G"})
     assert_fault(run, 1, r"--uncertainty: [\d,]+ Monte Carlo draws", "expected fewer draws",
                  folders=[out])
-    assert not (out / "f.csv").exists() and seconds < 30
+    assert not (out / "f.csv").exists() and peak < 5e8, peak
 
 
 def test_compare_bands_too_many_draws(inputs, out, monkeypatch):
@@ -236,10 +250,10 @@ def test_design_grid_too_large(inputs, out):
                      "  cuff.stiffness.per_angle[5]: {range: [1.0e5, 2.0e6], count: 100000}\n"
                      "plan: grid\nminimise: [peak_pressure_to_pain_threshold]\n",
                      encoding="utf-8")
-    run, seconds, _ = _run("design", study, "-o", out / "d")
+    run, _, peak = _run("design", study, "-o", out / "d")
     assert_fault(run, 1, r"vary: 10,000,000,000 designs", "expected fewer designs",
                  folders=[out])
-    assert not (out / "d").exists() and seconds < 30
+    assert not (out / "d").exists() and peak < 5e8, peak
 
 
 def test_study_draws_too_many(inputs, out):
@@ -250,9 +264,9 @@ def test_study_draws_too_many(inputs, out):
                      "minimise: [peak_pressure_to_pain_threshold]\n"
                      "uncertainty: {draws: 10000000, tissue_stiffness_sd: 0.06}\n",
                      encoding="utf-8")
-    run, seconds, _ = _run("design", study, "-o", out / "d", env={ENV_LIMIT: "4G"})
+    run, _, peak = _run("design", study, "-o", out / "d", env={ENV_LIMIT: "4G"})
     assert_fault(run, 1, r"uncertainty\.draws: 10,000,000 Monte Carlo draws", folders=[out])
-    assert not (out / "d").exists() and seconds < 30
+    assert not (out / "d").exists() and peak < 5e8, peak
 
 
 @pytest.mark.parametrize("plan", ["grid", "lhs:37", "sobol:16"])
