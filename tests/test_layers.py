@@ -3,9 +3,10 @@
 Every module of ``phri_spring`` and ``cli/`` is parsed (not imported) and
 every import it makes, at the top or inside a function, is mapped to the
 layer of the module it names: an import from a higher layer fails, naming
-the file and line. The module-level imports must also form no cycle (an
-import inside a function runs late and cannot deadlock a first import, so it
-is left out of the cycle check).
+the file and line. The imports must also form no cycle, those inside functions
+included (a late import cannot deadlock a first import, but two modules that
+need each other are one module in two files); imports for annotations only
+(``if TYPE_CHECKING:``) do not count.
 """
 
 from __future__ import annotations
@@ -53,9 +54,15 @@ def _imports(name: str, path: Path, package: bool, modules: dict):
     """(imported module, line, at module level) of every import of the package's own."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     top = {id(node) for node in tree.body}
+    # imports for annotations only (``if TYPE_CHECKING:``) never run
+    typing_only = {id(inner) for node in ast.walk(tree) if isinstance(node, ast.If)
+                   and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING"
+                   for inner in ast.walk(node)}
     here = name if package else name.rpartition(".")[0]
     found = []
     for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
         if isinstance(node, ast.Import):
             targets = [a.name for a in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -87,11 +94,11 @@ def test_no_import_runs_up_a_layer_and_no_cycle():
             theirs = _layer(target)
             if mine is not None and theirs is not None and theirs > mine:
                 upward.append(f"{path.relative_to(REPO)}:{line} imports {target}")
-            if at_top and target in modules and target != name:
+            if target in modules and target != name:
                 graph[name].add(target)
     assert upward == [], "\n".join(upward)
 
-    # depth-first search for a cycle among the module-level imports
+    # depth-first search for a cycle among all imports that run, inside functions too
     state, stack = {}, []
 
     def visit(node):

@@ -17,7 +17,7 @@ from typing import Iterator, Optional
 import numpy as np
 
 from ..errors import DataError
-from .config import LOG_COLUMNS
+from .columns import LOG_COLUMNS
 from .log_base import LogFormat, WrenchChunk, check_chunk, resolve_columns
 
 __all__ = ["CSV", "PARQUET"]

@@ -22,18 +22,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..errors import ConfigError
 from .schema_errors import config_error_from
+# the wrench-log columns of docs/model.md section 7, importable from here too
+from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
 
 __all__ = ["Config", "load_config", "config_from_dict", "resolve_stiffness", "LOG_COLUMNS"]
-
-#: the wrench-log columns of docs/model.md section 7
-LOG_COLUMNS = ("time", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
-#: deprecated: the key under which a column map used to carry a TDMS/MAT log's group; the
-#: readers take ``group=`` now and still honour the key for callers written before
-#: (:func:`phri_spring.io.log_base.take_group`)
-LOG_GROUP_KEY = "@group"
 
 
 # --------------------------------------------------------------------------- schema

@@ -40,7 +40,7 @@ from typing import Iterator, Optional
 import numpy as np
 
 from ..errors import DataError
-from .config import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401 - deprecated, importable here
+from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401 - deprecated, importable here
 from .log_base import LogFormat, WrenchChunk, check_chunk, take_group
 
 __all__ = ["LAB_FORMATS", "TDMS", "MAT", "lab_format", "iter_lab_log", "lab_row_count",

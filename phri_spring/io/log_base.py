@@ -19,7 +19,7 @@ from typing import Callable, Iterator, Optional
 import numpy as np
 
 from ..errors import DataError, UsageError
-from .config import LOG_COLUMNS, LOG_GROUP_KEY
+from .columns import LOG_COLUMNS, LOG_GROUP_KEY
 
 __all__ = ["LogFormat", "WrenchChunk", "check_chunk", "parse_column_map", "resolve_columns",
            "take_group", "reader_options"]

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import DataError, UsageError
 from .arrow_formats import CSV, PARQUET
-from .config import LOG_COLUMNS
+from .columns import LOG_COLUMNS
 from .labfiles import MAT, TDMS
 from .log_base import LogFormat, WrenchChunk, take_group
 

@@ -27,7 +27,10 @@ import numpy as np
 
 from .active_set import (PLAIN_ITERATIONS, SET_RTOL, ContactSystem, FactorCache, iterate,
                          key_groups, set_keys, solve_warm)
-from .model import SpringModel
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: model.py imports this module for its contact system
+    from .model import SpringModel
 
 __all__ = ["Solution", "solve", "solve_per_sample", "Solver", "SpringSystem", "FactorCache",
            "compression", "normal_forces", "shear_forces", "energy",
