@@ -141,8 +141,9 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
                 f"({100 * summary.max_pain_ratio:.3g}% of the pain threshold)")
     else:
         peak = "no converged sample, no peak pressure"
+    law = f", {summary.tissue_law} tissue law" if summary.tissue_law not in ("", "linear") else ""
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
-         f"{arm} arm, baseline {base}); {peak}; solver {summary.mean_iterations:.2f} "
+         f"{arm} arm{law}, baseline {base}); {peak}; solver {summary.mean_iterations:.2f} "
          f"solves/sample on average" + (f"; plot {plot}" if plot else ""), quiet)
 
 

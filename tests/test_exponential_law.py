@@ -254,3 +254,11 @@ def test_bad_stiffening_csv_column(tmp_path, log_small):
     res = run_phri("simulate", path, log_small, "-o", tmp_path / "f.csv")
     err = stderr_of(res).strip()
     assert res.exit_code == 1 and "stiffening_per_m" in err and "\n" not in err, err
+
+
+def test_summary_line_names_the_law(tmp_path, log_small):
+    stiff = _cfg(tmp_path, lambda t: t.update(stiffening=100.0), "stiff.yaml")
+    res = run_phri("simulate", stiff, log_small, "-o", tmp_path / "f.csv")
+    assert res.exit_code == 0 and "compliant arm, exponential tissue law" in stderr_of(res)
+    res = run_phri("simulate", HARMONY_CONFIG, log_small, "-o", tmp_path / "g.csv")
+    assert res.exit_code == 0 and "tissue law" not in stderr_of(res)

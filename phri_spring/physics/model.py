@@ -47,6 +47,12 @@ class OnGeometry:
         solves it); a model with a nonlinear law overrides it."""
         return True
 
+    @property
+    def law(self):
+        """The model's tissue law (a :class:`~phri_spring.physics.tissue_laws.TissueLaw`), or
+        None where the tissue is not a law of its elements (the rigid arm, the continuum)."""
+        return None
+
 
 @dataclass(frozen=True, eq=False)
 class SpringModel(OnGeometry):

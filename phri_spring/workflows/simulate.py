@@ -15,6 +15,8 @@ the column map and group, the baseline, the chunked reader, the writer) is a
 
 from __future__ import annotations
 
+import dataclasses
+
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -315,6 +317,8 @@ class SimulateSummary:
     mean_iterations: float
     baseline_forces: Optional[np.ndarray]
     labels: tuple
+    #: the tissue law the model ran (``linear``, ``exponential``, ...; "" for no tissue)
+    tissue_law: str = ""
 
 
 @dataclass(frozen=True)
@@ -489,8 +493,10 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         # decoded while the writer opens; CSV is not: parsing ahead would compete with
         # the CSV writer's threads
         chunks = prefetch(chunks)
+    law = model.law
     try:
-        return _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear)
+        summary = _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear)
+        return dataclasses.replace(summary, tissue_law=law.name if law is not None else "")
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
