@@ -123,6 +123,9 @@ class TissueLaw:
     is_linear: ClassVar[bool] = False
     #: the force depends on the loading history (samples are solved in order)
     has_state: ClassVar[bool] = False
+    #: for a law with history: the state the force is evaluated in, set by the solver to
+    #: the state the previous sample left (:meth:`initial_state` before the first)
+    state = None
 
     def __init__(self, k0, **params):
         k0 = np.atleast_1d(np.asarray(k0, dtype=float))
@@ -233,6 +236,9 @@ class LinearLaw(TissueLaw):
     def energy(self, d):
         dp = np.maximum(d, 0.0)
         return 0.5 * self.k0 * dp * dp
+
+    def series_share(self, d, c_cuff):
+        return d / (1.0 + self.k0 * c_cuff)
 
     def compression_at(self, f):
         return np.asarray(f, dtype=float) / self.k0
@@ -359,22 +365,21 @@ class SeriesElement:
         law = self.law
         if law is None:
             return np.zeros_like(dp)
-        c = self._c_cuff
-        if law.is_linear:
-            return dp / (1.0 + law.k0 * c)
-        return law.series_share(dp, c)
+        return law.series_share(dp, self._c_cuff)
 
     def from_share(self, dt):
-        """(force [N], energy [J]) of the elements from the tissue's share d_t (a nonlinear law)."""
+        """(force [N], energy [J]) of the elements from the tissue's share d_t (a tissue law)."""
         f = self.law.force(dt)
         return f, self.law.energy(dt) + 0.5 * f * f * self._c_cuff
 
+    def _with_cuff(self, kt):
+        """The tissue's tangent kt [N/m] in series with the cuff spring (0 where kt is 0)."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(kt > 0, 1.0 / (1.0 / np.where(kt > 0, kt, 1.0) + self._c_cuff), 0.0)
+
     def tangent_from_share(self, dt):
         """df/dd [N/m] from the tissue's share d_t (0 where the element is open)."""
-        kt = self.law.tangent(dt)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            k = np.where(kt > 0, 1.0 / (1.0 / np.where(kt > 0, kt, 1.0) + self._c_cuff), 0.0)
-        return np.where(dt > 0.0, k, 0.0)
+        return np.where(dt > 0.0, self._with_cuff(self.law.tangent(dt)), 0.0)
 
     def force(self, d) -> np.ndarray:
         """Element force f [N] at total compressions d (..., n)."""
@@ -388,18 +393,14 @@ class SeriesElement:
         if self.law is None:
             return np.where(d >= 0.0, self.k_cuff, 0.0)
         kt = self.law.tangent(self.tissue_compression(d))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            k = np.where(kt > 0, 1.0 / (1.0 / np.where(kt > 0, kt, 1.0) + self._c_cuff), 0.0)
-        return np.where(d >= 0.0, k, 0.0)
+        return np.where(d >= 0.0, self._with_cuff(kt), 0.0)
 
     def energy(self, d) -> np.ndarray:
         """Stored energy of the element [J] at total compressions d."""
         if self.law is None:
             dp = np.maximum(d, 0.0)
             return 0.5 * self.k_cuff * dp * dp
-        dt = self.tissue_compression(d)
-        f = self.law.force(dt)
-        return self.law.energy(dt) + 0.5 * f * f * self._c_cuff
+        return self.from_share(self.tissue_compression(d))[1]
 
     def compression_at(self, f) -> np.ndarray:
         """Total compression [m] at which the element carries f [N] (f >= 0)."""
