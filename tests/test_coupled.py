@@ -243,6 +243,14 @@ def test_bad_surface_stiffness_is_rejected(K, match):
         build_coupled_model(_geometry(), K, 1e5)
 
 
+def _own_normal_output(g, K):
+    """N_e = n_e^T K_t,e: the force along n_e of patch e's own skin motion (3 dofs a patch)."""
+    N = np.zeros((g.n, 3 * g.n))
+    for e in range(g.n):
+        N[e, 3 * e:3 * e + 3] = g.normals[e] @ K[3 * e:3 * e + 3, 3 * e:3 * e + 3]
+    return N
+
+
 def test_normal_output_map_is_consistent_with_the_default():
     # N q with N_e = n_e^T K_t,e (the force along n_e of patch e's own skin motion) is what
     # the model reports without an output map when K_t is block diagonal; with a
@@ -251,9 +259,7 @@ def test_normal_output_map_is_consistent_with_the_default():
     g = _geometry()
     k_t = rng.uniform(30e3, 60e3, g.n)
     K = _diagonal_K(g, k_t, shear_ratio_from_poisson(0.45))
-    N = np.zeros((g.n, 3 * g.n))
-    for e in range(g.n):
-        N[e, 3 * e:3 * e + 3] = g.normals[e] @ K[3 * e:3 * e + 3, 3 * e:3 * e + 3]
+    N = _own_normal_output(g, K)
     k_c = rng.uniform(5e4, 5e5, g.n)
     plain = build_coupled_model(g, K, k_c, strap_tension=15.0)
     mapped = build_coupled_model(g, K, k_c, strap_tension=15.0, normal_output=N)
@@ -279,9 +285,7 @@ def test_an_output_map_that_cannot_report_the_preload_is_refused():
     g = _geometry()
     k_t = rng.uniform(30e3, 60e3, g.n)
     K = _diagonal_K(g, k_t, shear_ratio_from_poisson(0.45))
-    N = np.zeros((g.n, 3 * g.n))
-    for e in range(g.n):
-        N[e, 3 * e:3 * e + 3] = g.normals[e] @ K[3 * e:3 * e + 3, 3 * e:3 * e + 3]
+    N = _own_normal_output(g, K)
     N[4] *= -1.0
     with pytest.raises(ValueError, match=rf"patch {g.labels[4]} would have to pull"):
         build_coupled_model(g, K, 1e5, strap_tension=15.0, normal_output=N)

@@ -242,14 +242,21 @@ def test_compare_bands_too_many_draws(inputs, out, monkeypatch):
     assert not (out / "cmp").exists()
 
 
-def test_design_grid_too_large(inputs, out):
+def _study(inputs, out, rest: str) -> Path:
+    """A study of the fixtures' config over a copy of their log (task.csv): ``vary:`` and
+    what follows it, in YAML."""
     (out / "task.csv").write_bytes(Path(inputs["log_csv"]).read_bytes())
     study = out / "study.yaml"
     study.write_text(f"config: {inputs['cfg']}\nloads: [task.csv]\narm: compliant\nvary:\n"
-                     "  strap.tension: {range: [5, 40], count: 100000}\n"
-                     "  cuff.stiffness.per_angle[5]: {range: [1.0e5, 2.0e6], count: 100000}\n"
-                     "plan: grid\nminimise: [peak_pressure_to_pain_threshold]\n",
-                     encoding="utf-8")
+                     + rest, encoding="utf-8")
+    return study
+
+
+def test_design_grid_too_large(inputs, out):
+    study = _study(inputs, out,
+                   "  strap.tension: {range: [5, 40], count: 100000}\n"
+                   "  cuff.stiffness.per_angle[5]: {range: [1.0e5, 2.0e6], count: 100000}\n"
+                   "plan: grid\nminimise: [peak_pressure_to_pain_threshold]\n")
     run, _, peak = _run("design", study, "-o", out / "d")
     assert_fault(run, 1, r"vary: 10,000,000,000 designs", "expected fewer designs",
                  folders=[out])
@@ -257,13 +264,10 @@ def test_design_grid_too_large(inputs, out):
 
 
 def test_study_draws_too_many(inputs, out):
-    (out / "task.csv").write_bytes(Path(inputs["log_csv"]).read_bytes())
-    study = out / "study.yaml"
-    study.write_text(f"config: {inputs['cfg']}\nloads: [task.csv]\narm: compliant\nvary:\n"
-                     "  strap.tension: {values: [5, 10]}\nplan: grid\n"
-                     "minimise: [peak_pressure_to_pain_threshold]\n"
-                     "uncertainty: {draws: 10000000, tissue_stiffness_sd: 0.06}\n",
-                     encoding="utf-8")
+    study = _study(inputs, out,
+                   "  strap.tension: {values: [5, 10]}\nplan: grid\n"
+                   "minimise: [peak_pressure_to_pain_threshold]\n"
+                   "uncertainty: {draws: 10000000, tissue_stiffness_sd: 0.06}\n")
     run, _, peak = _run("design", study, "-o", out / "d", env={ENV_LIMIT: "4G"})
     assert_fault(run, 1, r"uncertainty\.draws: 10,000,000 Monte Carlo draws", folders=[out])
     assert not (out / "d").exists() and peak < 5e8, peak
