@@ -198,6 +198,7 @@ class SpringSystem(ContactSystem):
 
     def __init__(self, model: SpringModel, cache: FactorCache | None = None):
         self.model = model
+        self._linear = model.is_linear
         self.n = model.n
         self.cache = FactorCache() if cache is None else cache
 
@@ -288,7 +289,16 @@ class SpringSystem(ContactSystem):
         return self.indicator(u) > 0
 
     def forces(self, q, out=None, u=None):
-        """Normal forces [N] from the indicator (compression) q; in place if ``out is q``."""
+        """Normal forces [N] from the indicator (compression) q; in place if ``out is q``.
+
+        With a nonlinear tissue law, the element law's force of the compression.
+        """
+        if not self._linear:
+            f = self.model.element.force(q)
+            if out is None:
+                return f
+            out[...] = f
+            return out
         return forces_from_compression(self.model, q, out=out)
 
 
@@ -410,10 +420,7 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
             # the settled set, read off the indicator before it becomes the forces in place
             np.greater(qb, 0.0, out=contact[s:e])
             carry = contact[e - 1]
-            if linear:
-                system.forces(qb, out=qb, u=ub)
-            else:
-                qb[:] = model.element.force(qb)
+            system.forces(qb, out=qb, u=ub)
             # a displacement beyond _HUGE (or not finite) comes from an absurd input and is
             # not an answer: its forces and pressures overflow (one cheap test first)
             if not (ub.max() <= _HUGE and ub.min() >= -_HUGE):
@@ -450,13 +457,10 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     for i in range(m):
         ui, qi, _, it_i, ok = iterate(system, W[i:i + 1] + model.W_pre, full, max_iterations)
         u[i], q[i], its[i], conv[i] = ui[0], qi[0], it_i[0], ok[0]
-    if model.is_linear:
-        contact = (q > 0) & conv[:, None]
-        forces = system.forces(q, u=u)
-    else:
+    if not model.is_linear:
         q = _nonlinear_finish(model, W + model.W_pre, u, its, conv, max_iterations)
-        contact = (q > 0) & conv[:, None]
-        forces = model.element.force(q)
+    contact = (q > 0) & conv[:, None]
+    forces = system.forces(q, u=u)
     forces[~conv] = np.nan
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
 
@@ -542,10 +546,7 @@ class Solver:
         NaN everywhere if the solver did not converge (see ``last_converged``).
         """
         u = self.displacement(wrench)
-        if self._linear:
-            f = self._system.forces(self._q, u=u[None])[0]
-        else:
-            f = self.model.element.force(self._q)[0]
+        f = self._system.forces(self._q, u=u[None])[0]
         if not self.last_converged:
             f[:] = np.nan
         return f
