@@ -56,7 +56,7 @@ def _newton_rows(model, r, u, max_steps):
     m = len(r)
     its = np.zeros(m, dtype=np.int64)
     conv = np.zeros(m, dtype=bool)
-    g, res, Pi, scale = _state(model, u, r)
+    dt, res, Pi, scale = _state(model, u, r)   # dt: the tissue's share of each compression
     active = np.arange(m)
     for step_no in range(max_steps + 1):
         ok = np.abs(res[active]).max(axis=1) <= RESIDUAL_RTOL * np.maximum(scale[active], 1e-300)
@@ -64,7 +64,7 @@ def _newton_rows(model, r, u, max_steps):
         active = active[~ok]
         if active.size == 0 or step_no == max_steps:
             break
-        H = (model.element.tangent_from_share(g[active]) @ model.bb).reshape(-1, 6, 6) + model.K_s
+        H = (model.element.tangent_from_share(dt[active]) @ model.bb).reshape(-1, 6, 6) + model.K_s
         d = -np.linalg.solve(H, res[active][:, :, None])[:, :, 0]
         slope = np.einsum("mi,mi->m", res[active], d)         # < 0: a descent direction
         alpha = np.ones(active.size)
@@ -72,15 +72,15 @@ def _newton_rows(model, r, u, max_steps):
         for _ in range(_HALVINGS):
             rows = active[pending]
             un = u[rows] + alpha[pending, None] * d[pending]
-            gn, resn, Pin, scn = _state(model, un, r[rows])
+            dtn, resn, Pin, scn = _state(model, un, r[rows])
             # Armijo's sufficient decrease, or, where the energy is flat to round-off, a
             # smaller residual (near the minimum Pi cannot resolve the step any more)
             good = (Pin <= Pi[rows] + _ARMIJO * alpha[pending] * slope[pending]) | (
                 (Pin <= Pi[rows] + 1e-13 * np.abs(Pi[rows]))
                 & (np.abs(resn).max(axis=1) < np.abs(res[rows]).max(axis=1)))
             acc = rows[good]
-            u[acc], g[acc], res[acc], Pi[acc], scale[acc] = (un[good], gn[good], resn[good],
-                                                             Pin[good], scn[good])
+            u[acc], dt[acc], res[acc], Pi[acc], scale[acc] = (un[good], dtn[good], resn[good],
+                                                              Pin[good], scn[good])
             pending = pending[~good]
             if pending.size == 0:
                 break
