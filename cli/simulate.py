@@ -142,9 +142,27 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     else:
         peak = "no converged sample, no peak pressure"
     law = f", {summary.tissue_law} tissue law" if summary.tissue_law not in ("", "linear") else ""
+    mu = summary.friction_coefficient
+    contact = f", friction mu = {mu:g}" if mu is not None else ""
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
-         f"{arm} arm{law}, baseline {base}); {peak}; solver {summary.mean_iterations:.2f} "
+         f"{arm} arm{law}{contact}, baseline {base}); {peak}; {load_path_text(summary)}; "
+         f"solver {summary.mean_iterations:.2f} "
          f"solves/sample on average" + (f"; plot {plot}" if plot else ""), quiet)
+
+
+def load_path_text(summary) -> str:
+    """The summary's clause on what carries the applied force (docs/model.md section 12.4)."""
+    normal, tangential, lifted = summary.load_shares
+    if not math.isfinite(normal):
+        return "no applied force"
+    kind = "friction" if summary.friction_coefficient is not None else "bonded ties"
+    text = (f"applied force carried {100 * normal:.0f}% by normal forces, "
+            f"{100 * tangential:.0f}% by {kind} in contact")
+    if summary.friction_coefficient is None:
+        text += f", {100 * lifted:.1f}% by lifted elements' bonded springs"
+        if abs(lifted) >= 0.01:
+            text += " (set interface.friction_coefficient to release them)"
+    return text
 
 
 def _check_draws(config, log, output, arm, colmap, group, draws, sd):

@@ -47,7 +47,8 @@ class FactorCache:
     """Bounded least-recently-used map: contact-set key (int) -> factorisation.
 
     Owned by whoever solves (a :class:`~phri_spring.physics.solver.Solver`, one
-    streaming run of ``simulate``); never stored on a model.
+    streaming run of ``simulate``); never stored on a model. With friction it also
+    carries the loading path's state from one call to the next (the chunks of one log).
 
     Parameters
     ----------
@@ -63,13 +64,18 @@ class FactorCache:
     (True, 'a', 2)
     """
 
-    __slots__ = ("_data", "maxsize", "hits", "misses")
+    __slots__ = ("_data", "maxsize", "hits", "misses", "path_state", "path_maps")
 
     def __init__(self, maxsize: int = 1 << 14):
         self._data: OrderedDict = OrderedDict()
         self.maxsize = int(maxsize)
         self.hits = 0
         self.misses = 0
+        #: with friction (docs/model.md section 12): where the loading path has left the
+        #: interface after the last call, so the next chunk of the same log goes on from it
+        self.path_state = None
+        #: with friction: the affine maps of the states met (state key -> maps)
+        self.path_maps: dict = {}
 
     def get(self, key: int):
         """The entry of ``key`` (marked most recently used), or None."""

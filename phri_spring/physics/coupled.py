@@ -43,7 +43,7 @@ from scipy.optimize import nnls
 from .active_set import SET_RTOL, ContactSystem, FactorCache, key_groups, set_keys
 from ..errors import ModelInputError
 from .geometry import CuffGeometry, rigid_body_map
-from .model import OnGeometry, field_unit
+from .model import OnGeometry, check_friction, field_unit
 from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
 
@@ -141,6 +141,8 @@ class CoupledModel(OnGeometry):
     strap_model: str = "hoop"
     pain_threshold_kpa: float = field(default=120.0,
                                       metadata=field_unit("kPa", "docs/model.md section 4"))
+    friction_coefficient: float | None = field(default=None, metadata=field_unit(
+        "-", "docs/model.md section 12"))
     N_out: np.ndarray | None = field(default=None, repr=False,
                                      metadata=field_unit("[N/m, N/rad]",
                                                           "docs/model.md section 10"))
@@ -409,7 +411,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                         shear_ratio: float | None = None, strap_tension: float = 15.0,
                         strap_model: str = "hoop", handle_angles_deg=None,
                         handle_axial_position: float | None = None,
-                        pain_threshold_kpa: float = 120.0, normal_output=None) -> CoupledModel:
+                        pain_threshold_kpa: float = 120.0, normal_output=None,
+                        friction_coefficient: float | None = None) -> CoupledModel:
     """Assemble the coupled model of docs/model.md section 10.
 
     Parameters
@@ -431,6 +434,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
         N: the normal force a patch reports, N q [N], for the skin's patch motions q
         (same dof layout as K_surface), e.g. the integral of the normal traction over
         the patch (the built-in FE's). Default: the patch force along n_e.
+    friction_coefficient : float, optional
+        Coulomb coefficient mu >= 0 [-] (docs/model.md section 12); None: bonded.
 
     Raises
     ------
@@ -515,7 +520,7 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     model = CoupledModel(geometry=geometry, arm="coupled", K_t=K, dofs=dofs, k_cuff=k_c,
                          shear_ratio=eta, delta=delta, f0=f0, W_pre=W_pre, T=T, C=C, C_t=C_t,
                          strap_model=strap_model, pain_threshold_kpa=float(pain_threshold_kpa),
-                         N_out=N_out)
+                         N_out=N_out, friction_coefficient=check_friction(friction_coefficient))
     # every patch lifted off: the tangential ties alone must hold the cuff
     try:
         model.contact_system(FactorCache(0))._reduced_problem()

@@ -13,7 +13,7 @@ from .springs import (indenter_to_element, series_stiffness, shear_ratio_from_po
                       shear_stiffness_matrix)
 from .tissue_laws import LinearLaw, SeriesElement, TissueLaw, make_law
 
-__all__ = ["SpringModel", "build_model", "tissue_element_stiffness", "field_table", "field_unit"]
+__all__ = ["SpringModel", "build_model", "check_friction", "tissue_element_stiffness", "field_table", "field_unit"]
 
 
 def field_unit(unit: str, source: str) -> dict:
@@ -97,6 +97,9 @@ class SpringModel(OnGeometry):
         max_e |delta0_e| [m] (derived).
     inv_area_kpa : ndarray, shape (n,)
         1 / (1000 A_e) [1/(kPa*m^2) = 1/(1000 N)]: force [N] times it is pressure [kPa] (derived).
+    friction_coefficient : float or None
+        mu [-] (docs/model.md section 12): elements that lift off carry nothing and touching
+        ones hold by Coulomb friction, along the loading path; None: bonded shear springs.
     element : SeriesElement
         Each element's normal law: the tissue law in series with its cuff spring
         (the cuff spring alone for the rigid arm); k above is its stiffness at small
@@ -114,6 +117,9 @@ class SpringModel(OnGeometry):
     W_pre: np.ndarray = field(metadata=field_unit("[N, N, N, N*m, N*m, N*m]", "docs/model.md section 3"))
     strap_model: str = "hoop"
     pain_threshold_kpa: float = field(default=120.0, metadata=field_unit("kPa", "docs/model.md section 4"))
+    #: Coulomb coefficient of the skin on the cuff; None: bonded (the paper's springs)
+    friction_coefficient: float | None = field(default=None, metadata=field_unit(
+        "-", "docs/model.md section 12"))
     bT: np.ndarray = field(init=False, repr=False, metadata=field_unit("[-, m]", "derived"))
     bb: np.ndarray = field(init=False, repr=False, metadata=field_unit("[-, m, m^2]", "derived"))
     delta0_b: np.ndarray = field(init=False, repr=False, metadata=field_unit("[m, m^2]", "derived"))
@@ -215,7 +221,8 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
                 strap_tension: float = 15.0, strap_model: str = "hoop",
                 handle_angles_deg=None, handle_axial_position: float | None = None,
                 pain_threshold_kpa: float = 120.0, law="linear",
-                law_parameters: dict | None = None) -> SpringModel:
+                law_parameters: dict | None = None,
+                friction_coefficient: float | None = None) -> SpringModel:
     """Assemble the spring network of docs/model.md sections 2 and 3.
 
     Parameters
@@ -245,6 +252,9 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
         stiffness at small compression; the rigid arm has no tissue.
     law_parameters : dict, optional
         The law's parameters (name -> number or (n,) array, in their units).
+    friction_coefficient : float, optional
+        Coulomb coefficient mu >= 0 [-] of docs/model.md section 12 (linear law only);
+        None keeps the bonded shear springs.
 
     Raises
     ------
@@ -288,6 +298,26 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
         delta0 = np.zeros(n)
         W_pre = W_handles
 
+    mu = check_friction(friction_coefficient)
+    if mu is not None and not element.is_linear:
+        raise ModelInputError("interface.friction_coefficient: friction is not yet available "
+                              "with a nonlinear tissue law; use tissue.law: linear",
+                              "friction_coefficient")
     return SpringModel(geometry=geometry, arm=arm, k=k, k_shear=k_s, K_s=K_s, delta0=delta0,
                        f0=f0, W_pre=W_pre, strap_model=strap_model,
-                       pain_threshold_kpa=float(pain_threshold_kpa), element=element)
+                       pain_threshold_kpa=float(pain_threshold_kpa), element=element,
+                       friction_coefficient=mu)
+
+
+def check_friction(mu) -> float | None:
+    """A Coulomb coefficient as a float (None stays None: bonded); typed error otherwise."""
+    if mu is None:
+        return None
+    try:
+        mu = float(mu)
+    except (TypeError, ValueError):
+        mu = float("nan")
+    if not (np.isfinite(mu) and mu >= 0):
+        raise ModelInputError(f"interface.friction_coefficient: expected a finite number >= 0, "
+                              f"got {mu!r}", "friction_coefficient")
+    return mu

@@ -59,16 +59,26 @@ class Solution:
     iterations : ndarray of int, shape (m,)
         Linear solves the sample needed.
     converged : ndarray of bool, shape (m,)
+    tangential : ndarray, shape (m, n, 2), or None
+        With friction (docs/model.md section 12): the tangential force on the arm of every
+        element or patch (axial, circumferential) [N], which depends on the loading path
+        and so cannot be recomputed from u. None otherwise.
+    moments : ndarray, shape (m, n, 3), or None
+        With friction and patches with rotations: each patch's moment on the skin about
+        its centre, local axes (normal, axial, circumferential) [N*m]. None otherwise.
     """
 
-    __slots__ = ("u", "forces", "iterations", "converged", "contact")
+    __slots__ = ("u", "forces", "iterations", "converged", "contact", "tangential", "moments")
 
-    def __init__(self, u, forces, iterations, converged, contact):
+    def __init__(self, u, forces, iterations, converged, contact, tangential=None,
+                 moments=None):
         self.u = u
         self.forces = forces
         self.iterations = iterations
         self.converged = converged
         self.contact = contact
+        self.tangential = tangential
+        self.moments = moments
 
     def __repr__(self):
         return (f"Solution(samples={np.shape(self.forces)[0] if np.ndim(self.forces) > 1 else 1}, "
@@ -377,6 +387,8 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     if int(max_iterations) < 1:
         raise ValueError("max_iterations: expected >= 1")
     max_iterations = int(max_iterations)
+    if getattr(model, "friction_coefficient", None) is not None:
+        return _solve_friction(model, W, single, cache)
     system = make_system(model, cache)
     linear = model.is_linear
     m, n = len(W), system.n
@@ -435,6 +447,41 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
         return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
                         contact=contact[0])
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
+
+
+def _solve_friction(model, W, single: bool, cache: FactorCache | None,
+                    state=None) -> Solution:
+    """:func:`solve` with Coulomb friction: the rows of W are a loading path, solved in order
+    from the state ``cache`` carries (a fresh cache: the strap's state at zero wrench)."""
+    from .friction import interface_form, solve_path
+
+    form = interface_form(model)
+    cache = FactorCache(0) if cache is None else cache
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = W + model.W_pre
+    finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= _HUGE)
+    r = np.where(finite[:, None], r, model.W_pre)
+    u, P, cls, solves, conv, end = solve_path(form, r, cache.path_state if state is None
+                                              else state, cache.path_maps)
+    cache.path_state = end
+    conv &= finite
+    n, d = form.n, form.d
+    Pe = P.reshape(len(W), n, d)
+    forces = np.maximum(Pe[:, :, 0], 0.0)
+    tangential = Pe[:, :, 1:3].copy()
+    moments = Pe[:, :, 3:6].copy() if d == 6 else None
+    contact = (cls > 0) & conv[:, None]
+    forces[~conv] = np.nan
+    tangential[~conv] = np.nan
+    if moments is not None:
+        moments[~conv] = np.nan
+    its = np.maximum(solves, 1)
+    if single:
+        return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
+                        contact=contact[0], tangential=tangential[0],
+                        moments=None if moments is None else moments[0])
+    return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact,
+                    tangential=tangential, moments=moments)
 
 
 def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:

@@ -30,6 +30,7 @@ from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
+from ..physics.load_path import force_parts
 from ..physics.model import SpringModel
 from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
@@ -266,7 +267,10 @@ def shear_columns(labels) -> tuple:
 def _shear_extras(model, sol) -> dict:
     """Tangential force on the arm of every element [N] (axial, circumferential), NaN where
     the sample did not converge."""
-    s = model.shear_components(sol.u, sol.contact)
+    if sol.tangential is not None:   # friction: the path's own tangential forces
+        s = np.array(np.atleast_3d(sol.tangential), dtype=float)
+    else:
+        s = model.shear_components(sol.u, sol.contact)
     if not sol.converged.all():
         s[~sol.converged] = np.nan
     s = s.reshape(len(s), -1)
@@ -319,6 +323,12 @@ class SimulateSummary:
     labels: tuple
     #: the tissue law the model ran (``linear``, ``exponential``, ...; "" for no tissue)
     tissue_law: str = ""
+    #: shares of the applied force carried by the normal forces in contact, the tangential
+    #: forces in contact and the lifted elements' bonded springs (load-weighted over the
+    #: log, docs/model.md section 12.4) [-]; NaN when no force was applied
+    load_shares: tuple = (math.nan, math.nan, math.nan)
+    #: interface.friction_coefficient of the run (None: bonded)
+    friction_coefficient: Optional[float] = None
 
 
 @dataclass(frozen=True)
@@ -496,7 +506,8 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     law = model.law
     try:
         summary = _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear)
-        return dataclasses.replace(summary, tissue_law=law.name if law is not None else "")
+        return dataclasses.replace(summary, tissue_law=law.name if law is not None else "",
+                                   friction_coefficient=model.friction_coefficient)
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
@@ -513,6 +524,21 @@ class SummaryAccumulator:
         self.labels = tuple(labels)
         self.samples = self.not_converged = self.it_max = self.it_sum = 0
         self._peaks = {}  # chunk number -> (peak [kPa], element, pain ratio, time [s])
+        self._proj = np.zeros(3)   # sum over samples of F_k . F (docs/model.md section 12.4)
+        self._mag2 = 0.0           # sum over samples of |F|^2
+
+    def add_load_path(self, model, sol) -> None:
+        """Add a chunk's split of the applied force (normal, tangential, lifted)."""
+        ok = np.asarray(sol.converged, dtype=bool)
+        if not ok.any():
+            return
+        tang = None if sol.tangential is None else sol.tangential[ok]
+        parts = force_parts(model, sol.u[ok], sol.contact[ok],
+                            normal=sol.forces[ok] if tang is not None else None,
+                            tangential=tang)
+        F = parts.sum(axis=1)
+        self._proj += np.einsum("mki,mi->k", parts, F)
+        self._mag2 += float(np.einsum("mi,mi->", F, F))
 
     def add_solution(self, sol) -> None:
         self.samples += len(sol.iterations)
@@ -538,7 +564,9 @@ class SummaryAccumulator:
                                max_peak_element=best[1], max_pain_ratio=best[2],
                                max_peak_time=best[3], max_iterations_used=self.it_max,
                                mean_iterations=self.it_sum / max(self.samples, 1),
-                               baseline_forces=baseline_forces, labels=self.labels)
+                               baseline_forces=baseline_forces, labels=self.labels,
+                               load_shares=tuple(self._proj / self._mag2) if self._mag2 > 0
+                               else (math.nan,) * 3)
 
 
 def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear):
@@ -559,6 +587,7 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
         for number, (ch, W) in enumerate(chunks):
             chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
             acc.add_solution(chunk.solution)
+            acc.add_load_path(model, chunk.solution)
             job = extras_job(number, ch.time, chunk)
             if on_chunk is not None:  # the observer needs the extras now, in order
                 extras = job()

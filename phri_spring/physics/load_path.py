@@ -1,0 +1,88 @@
+"""What the load goes through: the share of the applied force each kind of contact carries.
+
+docs/model.md section 12.4. The patch forces of a solution balance the wrench on the cuff,
+so the applied force F (the force part of W + W_pre, cuff frame [N]) splits exactly into
+
+* F_normal -- the normal forces of the elements or patches in contact, sum f_e n_e;
+* F_tangential -- the tangential forces of those in contact: friction with
+  ``interface.friction_coefficient``, the bonded ties without it;
+* F_lifted -- the tangential forces of elements or patches that have lifted off, which
+  only the bonded model has (its shear springs and ties hold a lifted element), and with
+  which a user sees where the bonded assumption carries load it should not.
+
+The share of each is its projection on F, (F_k . F) / |F|^2, so the three add up to one.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["force_parts", "load_shares"]
+
+
+def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
+    """(F_normal, F_tangential, F_lifted) of every sample, shape (m, 3, 3) [N], cuff frame.
+
+    Parameters
+    ----------
+    model : SpringModel or CoupledModel
+    u : ndarray, shape (m, 6)
+        Solutions.
+    contact : ndarray of bool, shape (m, n)
+        Their contact sets.
+    normal, tangential : ndarray, shape (m, n) and (m, n, 2), optional
+        The normal and tangential forces (axial, circumferential) [N] when the solution
+        carries them (friction: ``Solution.forces``, ``Solution.tangential``); otherwise
+        they are recomputed from u (bonded).
+    """
+    u = np.atleast_2d(np.asarray(u, dtype=float))
+    S = np.atleast_2d(np.asarray(contact, dtype=bool))
+    g = model.geometry
+    normals = g.normals
+    circ = np.cross(normals, np.array([1.0, 0.0, 0.0]))
+    if hasattr(model, "K_t") and tangential is None:
+        # the coupled model's program forces (the normal force along n_e, not the traction
+        # integral it reports): these are what balance the wrench
+        P = model.patch_forces(u, S)
+        fn, ft = P[..., 0], P[..., 1:3]
+    elif tangential is not None:
+        ft = np.asarray(tangential, dtype=float)
+        fn = np.asarray(normal, dtype=float)
+    else:
+        ft = model.shear_components(u, S)
+        fn = None
+    if fn is None:
+        fn = _normal_forces(model, u, S)
+    fn = np.where(S, fn, 0.0)
+    vec_t = ft[..., 0, None] * np.array([1.0, 0.0, 0.0]) + ft[..., 1, None] * circ
+    normal = np.einsum("me,ei->mi", fn, normals)
+    touch = np.einsum("me,mei->mi", S.astype(float), vec_t)
+    lifted = np.einsum("me,mei->mi", (~S).astype(float), vec_t)
+    return np.stack([normal, touch, lifted], axis=1)
+
+
+def _normal_forces(model, u, S):
+    if hasattr(model, "K_t"):
+        return model.patch_forces(u, S)[..., 0]
+    g = model.delta0 + u @ model.bT
+    if model.is_linear:
+        return model.k * np.maximum(g, 0.0)
+    return model.element.force(g)
+
+
+def load_shares(parts: np.ndarray, weighted: bool = True):
+    """Shares (normal, tangential, lifted) [-] of the applied force.
+
+    ``parts`` (m, 3, 3) from :func:`force_parts`. ``weighted``: one share per part over all
+    samples, each sample weighted by |F|^2 (the load-weighted mean, (3,)); otherwise per
+    sample, (m, 3), NaN where no force is applied.
+    """
+    F = parts.sum(axis=1)                                  # (m, 3)
+    proj = np.einsum("mki,mi->mk", parts, F)
+    mag2 = np.einsum("mi,mi->m", F, F)
+    if weighted:
+        ok = np.isfinite(proj).all(axis=1) & np.isfinite(mag2)
+        tot = mag2[ok].sum()
+        return proj[ok].sum(axis=0) / tot if tot > 0 else np.full(3, np.nan)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(mag2[:, None] > 0, proj / mag2[:, None], np.nan)
