@@ -99,7 +99,7 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
 
 #: config key a physics input error is about (ModelInputError.quantity -> key)
 _QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear_ratio",
-                  "tissue_law": "tissue.law",
+                  "tissue_law": "tissue.law", "friction_coefficient": "interface.friction_coefficient",
                   "stiffness": "cuff.stiffness", "surface_stiffness": "tissue.continuum",
                   "normal_output": "tissue.continuum"}
 
@@ -133,7 +133,8 @@ def _spring_model(cfg: Config, arm: str):
                            handle_axial_position=cfg.strap_axial_position,
                            pain_threshold_kpa=cfg.pain_threshold_kpa,
                            law=cfg.tissue_law_class or cfg.tissue_law,
-                           law_parameters=cfg.tissue_law_parameters)
+                           law_parameters=cfg.tissue_law_parameters,
+                           friction_coefficient=cfg.friction_coefficient)
     except ModelInputError as exc:
         key = _QUANTITY_KEYS.get(exc.quantity) if exc.quantity != "stiffness" else None
         raise ConfigError(str(exc), file=cfg.path, key=key) from None
@@ -229,7 +230,8 @@ def _coupled_model(cfg: Config, cache_dir=None):
                                    strap_model=cfg.strap_model,
                                    handle_angles_deg=cfg.handle_angles_deg,
                                    handle_axial_position=cfg.strap_axial_position,
-                                   pain_threshold_kpa=cfg.pain_threshold_kpa, normal_output=N)
+                                   pain_threshold_kpa=cfg.pain_threshold_kpa, normal_output=N,
+                                   friction_coefficient=cfg.friction_coefficient)
     except ModelInputError as exc:
         raise ConfigError(str(exc), file=cfg.continuum_surface_stiffness or cfg.path,
                           key=_QUANTITY_KEYS.get(exc.quantity, key)) from None
