@@ -1,0 +1,327 @@
+"""The samples where something slips, lifts off or comes back (docs/model.md section 12).
+
+:func:`~phri_spring.physics.friction.solve_path` solves a loading path in affine blocks
+while the interface keeps its state; a sample where the state changes is solved here,
+from the state the path has reached:
+
+* the spring model (independent elements): given the cuff displacement u every element's
+  forces follow by its own return mapping, so the equilibrium is six equations in u,
+  solved by a semismooth Newton method (:func:`solve_event_elements`);
+* the coupled model (patches coupled through the skin): all patch forces P and u at once,
+  with the contact and friction laws written as the nonsmooth equations of Alart and
+  Curnier (Comput. Methods Appl. Mech. Eng. 92 (1991) 353-375), also by a semismooth
+  Newton method (:func:`solve_event_coupled`).
+
+Both end on the state they found, solved once more as a linear system in that state
+(exact zeros for released patches, equilibrium to round-off) and checked.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
+
+from .friction import (PathState, RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,
+                       _relative, _scales, _solve_state)
+
+__all__ = ["solve_event_elements", "solve_event_coupled"]
+
+#: most Newton steps per sample
+_MAX_STEPS = 60
+#: Newton steps without halving the residual before a sample is given up
+_STALL = 6
+#: a Newton step this long [m, rad] means a mode without stiffness (see the event solvers)
+_HUGE_STEP = 0.1
+
+
+def _newton_step(K, R):
+    """K du = -R; where every contact on a mode slides (e.g. all of them around the arm)
+    the tangent has almost no stiffness along it and the forces hardly depend on it: the
+    least-norm step leaves the cuff where it is along that mode."""
+    try:
+        du = np.linalg.solve(K, -R)
+    except np.linalg.LinAlgError:
+        du = None
+    if du is None or not np.abs(du).max() < _HUGE_STEP:
+        du = np.linalg.lstsq(K, -R, rcond=1e-10)[0]
+    return du
+
+
+class _Elements:
+    """The spring model's per-element arrays, ready for the return mapping."""
+
+    def __init__(self, form: InterfaceForm):
+        n = form.n
+        T = form.T.reshape(n, 3, 6)
+        self.Tn = np.ascontiguousarray(T[:, 0, :])
+        self.Tt = np.ascontiguousarray(T[:, 1:3, :].reshape(2 * n, 6))   # rows e-axial, e-circ
+        self.TtT = np.ascontiguousarray(self.Tt.T)
+        self.TnT = np.ascontiguousarray(self.Tn.T)
+        cdiag = np.diag(form.C).reshape(n, 3)
+        self.kn, self.kt = 1.0 / cdiag[:, 0], 1.0 / cdiag[:, 1]
+        self.dn = np.ascontiguousarray(form.delta.reshape(n, 3)[:, 0])
+        self.NN = (self.Tn[:, :, None] * self.Tn[:, None, :]).reshape(n, 36)
+        Tt3 = T[:, 1:3, :]
+        self.TT = np.einsum("eki,ekj->eij", Tt3, Tt3).reshape(n, 36)
+        self.Tt3 = Tt3
+
+
+_ELEMENTS: dict = {}
+
+
+def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
+    """One sample of the spring model (independent elements) from ``state``.
+
+    Given u every element's forces follow by its own return mapping (normal: compressive
+    only; tangential: the trial force k_s (J_e u - z_e) from where it stuck, scaled back
+    onto the cone when outside), so the equilibrium is six equations in u, solved by a
+    semismooth Newton method with the consistent tangent and a backtracking line search
+    on the residual, from ``u0`` (default: the last sample's u). Returns (u, P, new state,
+    solves, ok) as :func:`solve_event`.
+    """
+    el = _ELEMENTS.get(id(form))
+    if el is None or el[0] is not form:
+        _ELEMENTS.clear()
+        el = _ELEMENTS[id(form)] = (form, _Elements(form))
+    el = el[1]
+    n, mu = form.n, form.mu
+    kn, kt, dn = el.kn, el.kt, el.dn
+    # where each element's tie starts: stuck or sliding ones from their slip, released
+    # ones land where they were at the last sample (their skin does not move)
+    z0 = state.z[:, 1:3].copy()
+    rel = state.cls == RELEASED
+    if rel.any():
+        z0[rel] = (el.Tt @ state.u).reshape(n, 2)[rel]
+    force_scale = np.abs(r).max() + np.abs(form.W_pre).max() + 1e-300
+    tol = 1e-13 * force_scale
+
+    def forces(u):
+        g = el.Tn @ u
+        g += dn
+        c = g > 0
+        Pn = kn * g
+        Pn[~c] = 0.0
+        trial = (el.Tt @ u).reshape(n, 2)
+        trial -= z0
+        trial *= kt[:, None]
+        tn = np.sqrt(trial[:, 0] ** 2 + trial[:, 1] ** 2)
+        slide = tn > mu * Pn
+        slide &= c
+        Pt = trial
+        dirn = None
+        if slide.any():
+            dirn = trial[slide] / tn[slide, None]
+            Pt = trial.copy()
+            Pt[slide] = (mu * Pn[slide])[:, None] * dirn
+        Pt[~c] = 0.0
+        R = el.TnT @ Pn + el.TtT @ Pt.ravel() - r
+        return R, c, Pn, Pt, slide, dirn, tn
+
+    u = (state.u if u0 is None else u0).copy()
+    R, c, Pn, Pt, slide, dirn, tn = forces(u)
+    res = np.abs(R).max()
+    its = 0
+    polished = False
+    history = []
+    while its < _MAX_STEPS:
+        if res <= tol:
+            if polished:
+                break
+            polished = True   # one more step: the residual down to round-off
+        elif len(history) >= _STALL and res > 0.5 * history[-_STALL]:
+            # no progress: typically a load friction cannot hold (the cuff would slide
+            # along or around the arm), which has no equilibrium
+            break
+        history.append(res)
+        its += 1
+        stick = c & ~slide
+        K = ((kn * c) @ el.NN + (kt * stick) @ el.TT).reshape(6, 6)
+        if dirn is not None:
+            sl = np.flatnonzero(slide)
+            Tts = el.Tt3[sl]
+            # d(mu Pn d)/du = mu kn d Tn^T + mu Pn / |trial| kt (I - d d^T) Tt
+            proj = np.eye(2)[None] - dirn[:, :, None] * dirn[:, None, :]
+            dPt = (mu * kn[sl])[:, None, None] * dirn[:, :, None] * el.Tn[sl, None, :]
+            dPt += ((mu * Pn[sl] / tn[sl]) * kt[sl])[:, None, None] * (proj @ Tts)
+            K += np.einsum("eki,ekj->ij", Tts, dPt)
+        du = _newton_step(K, R)
+        step = 1.0
+        while True:
+            cand = forces(u + step * du)
+            new_res = np.abs(cand[0]).max()
+            if new_res < res or step < 1e-4 or (polished and new_res <= tol):
+                break
+            step *= 0.5
+        u = u + step * du
+        R, c, Pn, Pt, slide, dirn, tn = cand
+        if new_res >= res and res <= tol:
+            break
+        res = new_res
+    ok = res <= tol * 10 and np.all(np.isfinite(u))
+    if not ok:
+        return state.u, state.P, state, max(its, 1), False
+    cls = np.where(c, np.where(slide, SLIDING, STUCK), RELEASED).astype(state.cls.dtype)
+    z = state.z.copy()
+    z[:, 1:3] = z0
+    s_dir = state.s.copy()
+    if dirn is not None:
+        z[slide, 1:3] = (el.Tt @ u).reshape(n, 2)[slide] - Pt[slide] / kt[slide, None]
+        s_dir[slide] = dirn
+    P = np.zeros((n, 3))
+    P[:, 0], P[:, 1:3] = Pn, Pt
+    P = P.ravel()
+    return u, P, PathState(cls=cls, z=z, s=s_dir, u=u, P=P), max(its, 1), True
+
+
+
+
+def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
+    """One sample of the coupled model from ``state`` (Alart-Curnier, semismooth Newton).
+
+    Unknowns: the patch forces P (n d) and u (6). With rel = T u + delta - C P and z the
+    ties' offsets where the sample began (a released patch lands where it was at the last
+    sample, with no tangential force or moment), per patch e:
+
+    * normal: P_n = max(0, P_n + rho_n rel_n) (pressing with the gap closed, or released);
+    * tangential: P_t = proj_B(mu [P_n + rho_n rel_n]_+)(P_t + rho_t (rel_t - z_t)), the
+      projection on the disc of the friction cone (stuck inside, sliding on its rim);
+    * rotations: tied (rel_r = z_r) while pressing, free moments of 0 when released;
+
+    and the cuff: T^T P = r. rho are each dof's own stiffness 1/C_ii. Returns (u, P, new
+    state, solves, ok) as :func:`solve_event_elements`.
+    """
+    n, d, mu = form.n, form.d, form.mu
+    N = n * d
+    C, T = form.C, form.T
+    dof = np.arange(N).reshape(n, d)
+    nrm, tan, rot = dof[:, 0], dof[:, 1:3], dof[:, 3:]
+    rho = 1.0 / np.diag(C)
+    rho_n, rho_t, rho_r = rho[nrm], rho[tan], rho[rot]
+    z0 = state.z.copy()
+    rel_prev = _relative(form, state.u, state.P).reshape(n, d)
+    back = state.cls == RELEASED
+    z0[back, 1:] = rel_prev[back, 1:]
+    z0[:, 0] = 0.0
+    zf = z0.ravel()
+    force_scale, _ = _scales(form, r)
+    tol = 1e-12 * force_scale
+
+    def residual(x):
+        P, u = x[:N], x[N:]
+        rel = T @ u + form.delta - C @ P - zf
+        Pn = P[nrm]
+        yn = Pn + rho_n * rel[nrm]
+        touch = yn > 0
+        Rt = mu * np.maximum(yn, 0.0)
+        Pt = P[tan]
+        y = Pt + rho_t * rel[tan]
+        ny = np.sqrt(y[:, 0] ** 2 + y[:, 1] ** 2)
+        slide = ny > Rt
+        phi = np.empty(N + 6)
+        phi[nrm] = np.where(touch, -rho_n * rel[nrm], Pn)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            yh = np.where(ny[:, None] > 0, y / ny[:, None], 0.0)
+        phi[tan] = np.where(slide[:, None], Pt - Rt[:, None] * yh, -rho_t * rel[tan])
+        if d == 6:
+            phi[rot] = np.where(touch[:, None], -rho_r * rel[rot], P[rot])
+        phi[N:] = T.T @ P - r
+        return phi, (touch, slide, yh, ny, Rt)
+
+    def jacobian(info):
+        touch, slide, yh, ny, Rt = info
+        J = np.zeros((N + 6, N + 6))
+        dRel = np.hstack([-C, T])                       # d rel / d(P, u)
+        # normal rows
+        J[nrm] = np.where(touch[:, None], -rho_n[:, None] * dRel[nrm], 0.0)
+        J[nrm[~touch], nrm[~touch]] = 1.0
+        # tangential rows, stuck (or touching inside the disc)
+        for k in range(2):
+            rows = tan[:, k]
+            J[rows] = -rho_t[:, k, None] * dRel[rows]
+        sl = np.flatnonzero(slide)
+        if sl.size:
+            # phi_t = P_t - R_t yh: d = dP_t - yh mu d yn [touch] - R_t/|y| (I - yh yh^T) dy
+            dyn = np.zeros((sl.size, N + 6))
+            dyn[np.arange(sl.size), nrm[sl]] = 1.0
+            dyn += rho_n[sl, None] * dRel[nrm[sl]]
+            dyn *= (mu * touch[sl])[:, None]
+            dy = np.zeros((sl.size, 2, N + 6))
+            for k in range(2):
+                dy[np.arange(sl.size), k, tan[sl, k]] = 1.0
+                dy[:, k] += rho_t[sl, k, None] * dRel[tan[sl, k]]
+            with np.errstate(invalid="ignore", divide="ignore"):
+                g = np.where(ny[sl] > 0, Rt[sl] / ny[sl], 0.0)
+            proj = np.eye(2)[None] - yh[sl, :, None] * yh[sl, None, :]
+            block = -yh[sl, :, None] * dyn[:, None, :] - g[:, None, None] * (proj @ dy)
+            for k in range(2):
+                block[np.arange(sl.size), k, tan[sl, k]] += 1.0
+                J[tan[sl, k]] = block[:, k]
+        if d == 6:
+            for k in range(3):
+                rows = rot[:, k]
+                J[rows] = np.where(touch[:, None], -rho_r[:, k, None] * dRel[rows], 0.0)
+                J[rows[~touch], rows[~touch]] = 1.0
+        J[N:, :N] = T.T
+        return J
+
+    x = np.concatenate([state.P, state.u if u0 is None else u0])
+    phi, info = residual(x)
+    res = np.abs(phi).max()
+    its, history = 0, []
+    while its < _MAX_STEPS and res > tol:
+        if len(history) >= _STALL and res > 0.5 * history[-_STALL]:
+            break
+        history.append(res)
+        its += 1
+        J = jacobian(info)
+        try:
+            # scipy's LAPACK: numpy's threaded solve can stall on a busy machine at this size
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", LinAlgWarning)
+                dx = lu_solve(lu_factor(J, check_finite=False), -phi, check_finite=False)
+        except (np.linalg.LinAlgError, ValueError, LinAlgWarning):
+            dx = None
+        if dx is None or not np.all(np.isfinite(dx)):
+            dx = np.linalg.lstsq(J, -phi, rcond=1e-12)[0]
+        step = 1.0
+        while True:
+            cand = residual(x + step * dx)
+            new_res = np.abs(cand[0]).max()
+            if new_res < res or step < 1e-4:
+                break
+            step *= 0.5
+        x = x + step * dx
+        phi, info = cand
+        res = new_res
+    touch, slide, yh = info[0], info[1], info[2]
+    cls = np.where(touch, np.where(slide, SLIDING, STUCK), RELEASED).astype(state.cls.dtype)
+    return _finish(form, r, state, cls, z0, yh, its, res <= 1e3 * tol)
+
+
+def _finish(form, r, state, cls, z0, s_dir, its, close):
+    """Solve the state found exactly (a linear system) and check it; the event's result."""
+    if not close or not (cls != RELEASED).any():
+        return state.u, state.P, state, max(its, 1), False
+    s = state.s.copy()
+    sl = cls == SLIDING
+    s[sl] = s_dir[sl]
+    sol = _solve_state(form, r, cls, z0, s)
+    if sol is None:
+        return state.u, state.P, state, max(its, 1), False
+    u, P = sol
+    n, d, mu = form.n, form.d, form.mu
+    Pe = P.reshape(n, d)
+    rel = _relative(form, u, P).reshape(n, d) - z0
+    f_tol, x_tol = (STATE_RTOL * v for v in _scales(form, r))
+    press = cls != RELEASED
+    tn = np.sqrt(Pe[:, 1] ** 2 + Pe[:, 2] ** 2)
+    ok = (np.all(Pe[press, 0] >= -f_tol) and np.all(tn[press] <= mu * Pe[press, 0] + f_tol)
+          and np.all(rel[~press, 0] <= x_tol)
+          and np.all(np.einsum("ek,ek->e", rel[sl, 1:3], s[sl]) >= -x_tol))
+    if not ok:
+        return state.u, state.P, state, max(its, 1) + 1, False
+    z = z0.copy()
+    z[sl, 1:3] += rel[sl, 1:3]
+    return u, P, PathState(cls=cls, z=z, s=s, u=u, P=P), max(its, 1) + 1, True
