@@ -133,8 +133,11 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
                             pain_threshold_kpa=config.pain_threshold_kpa,
                             title=f"{Path(log).name}: {arm} arm")
     if summary.not_converged:
+        why = ("; with friction a load that friction and the strap cannot hold has no "
+               "equilibrium (the cuff would slide along, twist around or come off the arm)"
+               if summary.friction_coefficient is not None else "")
         warn(f"the solver did not converge for {summary.not_converged:,} of "
-             f"{summary.samples:,} samples; their forces are NaN (column 'converged')")
+             f"{summary.samples:,} samples; their forces are NaN (column 'converged'){why}")
     if math.isfinite(summary.max_peak_pressure_kpa):
         peak = (f"peak pressure {summary.max_peak_pressure_kpa:.4g} kPa at "
                 f"{summary.max_peak_element}, t = {summary.max_peak_time:g} s "

@@ -196,6 +196,22 @@ def test_blocks_and_events_agree_and_chunks_carry_the_path():
                                rtol=0, atol=1e-9)
 
 
+def test_single_sample_solver_and_plain_path_follow_the_same_path():
+    from phri_spring.physics.solver import Solver, solve_per_sample
+
+    model = _harmony()
+    _, W = smooth_random_log(300, seed=3)
+    W = W / np.abs(W[:, :3]).max() * 40.0 * np.array([0.3, 1, 1, 0.01, 0.02, 0.02])
+    a = solve(model, W)
+    solver = Solver(model)
+    f = np.array([solver.forces(w) for w in W])
+    b = solve_per_sample(model, W)
+    assert a.converged.all() and b.converged.all()
+    np.testing.assert_allclose(f, a.forces, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(b.forces, a.forces, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(b.tangential, a.tangential, rtol=0, atol=1e-9)
+
+
 def test_mirrored_path_gives_mirrored_forces():
     model = _harmony()
     _, W = smooth_random_log(600, seed=5)

@@ -494,6 +494,8 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     the reference the optimised path is tested and benchmarked against.
     """
     W = np.atleast_2d(np.asarray(wrench, dtype=float))
+    if getattr(model, "friction_coefficient", None) is not None:
+        return _per_sample_friction(model, W)
     system = make_system(model, FactorCache(maxsize=0))
     m, n = len(W), system.n
     u = np.zeros((m, 6))
@@ -510,6 +512,29 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     forces = system.forces(q, u=u)
     forces[~conv] = np.nan
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
+
+
+def _per_sample_friction(model, W) -> Solution:
+    """The plain path with friction: every sample by the event solver, no affine blocks."""
+    from .friction import initial_state, interface_form
+    from .friction_events import solve_event_coupled, solve_event_elements
+
+    form = interface_form(model)
+    event = solve_event_elements if form.diagonal else solve_event_coupled
+    state = initial_state(form)
+    m, n, d = len(W), form.n, form.d
+    u, P = np.full((m, 6), np.nan), np.full((m, n * d), np.nan)
+    its, conv = np.zeros(m, dtype=np.int64), np.zeros(m, dtype=bool)
+    contact = np.zeros((m, n), dtype=bool)
+    for i in range(m):
+        ui, Pi, new, its[i], conv[i] = event(form, W[i] + model.W_pre, state)
+        if conv[i]:
+            u[i], P[i], state = ui, Pi, new
+            contact[i] = new.cls > 0
+    Pe = P.reshape(m, n, d)
+    return Solution(u=u, forces=np.maximum(Pe[:, :, 0], 0.0), iterations=its, converged=conv,
+                    contact=contact, tangential=Pe[:, :, 1:3].copy(),
+                    moments=Pe[:, :, 3:6].copy() if d == 6 else None)
 
 
 class Solver:
@@ -554,6 +579,8 @@ class Solver:
 
     def displacement(self, wrench) -> np.ndarray:
         """Cuff displacement u (6,) [m, rad] for one wrench W (6,) [N, N*m] in the cuff frame."""
+        if getattr(self.model, "friction_coefficient", None) is not None:
+            return self._friction_step(wrench)
         r = np.asarray(wrench, dtype=float) + self._wpre
         size = np.abs(r).max() if r.shape == (6,) else np.nan
         if not size <= _HUGE and not np.isfinite(size):
@@ -580,6 +607,19 @@ class Solver:
         self._S, self._q = S, q
         return u[0]
 
+    def _friction_step(self, wrench) -> np.ndarray:
+        """One sample of the loading path with friction, from where the last call left it."""
+        W = np.asarray(wrench, dtype=float)
+        if W.shape != (6,) or not np.all(np.isfinite(W)):
+            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
+        sol = _solve_friction(self.model, W[None], False, self.cache)
+        self.last_iterations = int(sol.iterations[0])
+        self.last_converged = bool(sol.converged[0])
+        self._q = sol.forces[0]
+        self._S = sol.contact[:1]
+        self.last_tangential = sol.tangential[0]
+        return sol.u[0]
+
     @property
     def last_contact(self) -> np.ndarray:
         """The contact set (n,) bool the last call settled on (all False if it did not converge)."""
@@ -593,6 +633,8 @@ class Solver:
         NaN everywhere if the solver did not converge (see ``last_converged``).
         """
         u = self.displacement(wrench)
+        if getattr(self.model, "friction_coefficient", None) is not None:
+            return self._q.copy()
         f = self._system.forces(self._q, u=u[None])[0]
         if not self.last_converged:
             f[:] = np.nan
