@@ -254,3 +254,23 @@ def test_friction_with_a_nonlinear_law_is_refused():
     with pytest.raises(ModelInputError, match="nonlinear"):
         build_model(g, 5e4, 1e6, law="exponential", law_parameters={"stiffening": 50.0},
                     friction_coefficient=0.5)
+
+
+def test_coupled_patch_releases_and_comes_back_on_a_load_cycle():
+    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    d2 = np.sum((g.points[:, None, :] - g.points[None, :, :]) ** 2, axis=-1)
+    rot = np.diag([1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3])
+    C = 2e-5 * np.kron(np.eye(g.n), rot) + 2e-5 * np.kron(np.exp(-d2 / 0.03**2), rot)
+    model = build_coupled_model(g, np.linalg.inv(C), 2e5, strap_tension=15.0,
+                                friction_coefficient=MU)
+    F = np.concatenate([np.linspace(0, 60, 80), np.linspace(60, 0, 80)])
+    W = np.zeros((len(F), 6))
+    W[:, 2] = F                       # a one-sided push through the cuff's centre
+    sol = solve(model, W)
+    assert sol.converged.all()
+    _check_laws(model, W, sol, MU)
+    lifted = ~sol.contact
+    assert lifted[79].any() and not lifted[0].any() and not lifted[-1].any()
+    # the push is symmetric about the z axis plane x = 0: rows A and C mirror each other
+    f = sol.forces.reshape(-1, 3, 7)
+    np.testing.assert_allclose(f[:, 0], f[:, 2], atol=1e-9 * f.max())

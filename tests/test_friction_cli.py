@@ -122,3 +122,35 @@ def test_friction_with_the_exponential_law_is_refused(tmp_path):
     assert res.exit_code == 1
     assert "interface.friction_coefficient" in res.output and "nonlinear" in res.output
     assert not out.exists()
+
+
+def test_chunks_carry_the_loading_path(tmp_path):
+    cfg_path = _config(tmp_path, 0.4)
+    log, _ = _log(tmp_path, cfg_path)
+    outs = []
+    for rows in (37, 65536):
+        out = tmp_path / f"f{rows}.parquet"
+        res = CliRunner().invoke(phri, ["simulate", str(cfg_path), str(log), "-o", str(out),
+                                        "--shear", "--chunk-rows", str(rows)],
+                                 catch_exceptions=False)
+        assert res.exit_code == 0, res.output
+        outs.append(pd.read_parquet(out))
+    num = outs[0].select_dtypes("number").columns
+    np.testing.assert_allclose(outs[0][num].to_numpy(float), outs[1][num].to_numpy(float),
+                               rtol=0, atol=1e-9)
+
+
+def test_monte_carlo_draws_follow_their_own_path(tmp_path):
+    cfg_path = _config(tmp_path, 0.4)
+    log, _ = _log(tmp_path, cfg_path, m=200)
+    outs = []
+    for rows in (23, 65536):
+        out = tmp_path / f"mc{rows}.csv"
+        res = CliRunner().invoke(phri, ["simulate", str(cfg_path), str(log), "-o", str(out),
+                                        "--uncertainty", "4", "--chunk-rows", str(rows)],
+                                 catch_exceptions=False)
+        assert res.exit_code == 0, res.output
+        outs.append(pd.read_csv(out, comment="#"))
+    num = outs[0].select_dtypes("number").columns
+    np.testing.assert_allclose(outs[0][num].to_numpy(float), outs[1][num].to_numpy(float),
+                               rtol=0, atol=1e-6)

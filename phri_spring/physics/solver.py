@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # annotations only: model.py imports this module for its contact system
     from .model import SpringModel
 
-__all__ = ["Solution", "solve", "solve_per_sample", "Solver", "SpringSystem", "FactorCache",
+__all__ = ["Solution", "solve", "solve_segments", "solve_per_sample", "Solver", "SpringSystem", "FactorCache",
            "compression", "normal_forces", "shear_forces", "energy",
            "PLAIN_ITERATIONS", "make_system"]
 
@@ -447,6 +447,22 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
         return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
                         contact=contact[0])
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
+
+
+def solve_segments(model, wrench, bounds, *, max_iterations: int = 100) -> Solution:
+    """:func:`solve` on consecutive segments W[bounds[i]:bounds[i+1]], each its own loading
+    path from the strap's state (e.g. the trials of a comparison). Without friction a
+    sample does not depend on the ones before, and this is one :func:`solve`."""
+    W = np.atleast_2d(np.asarray(wrench, dtype=float))
+    if getattr(model, "friction_coefficient", None) is None:
+        return solve(model, W, max_iterations=max_iterations)
+    parts = [solve(model, W[a:b], max_iterations=max_iterations)
+             for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    cat = {name: np.concatenate([getattr(p, name) for p in parts])
+           for name in ("u", "forces", "iterations", "converged", "contact", "tangential")}
+    cat["moments"] = (None if parts[0].moments is None
+                      else np.concatenate([p.moments for p in parts]))
+    return Solution(**cat)
 
 
 def _solve_friction(model, W, single: bool, cache: FactorCache | None,

@@ -43,7 +43,7 @@ from ..io.config import Config, load_config, resolve_stiffness
 from ..io.experiment import WRENCH_COLUMNS, Manifest, TrialData, load_manifest, read_trial
 from ..io.logs import reader_options
 from ..physics.metrics import mean_and_se, rmse as rmse_eq1, zero_on
-from ..physics.solver import solve
+from ..physics.solver import solve_segments
 from ..reports.compare_report import compare_report, summary_markdown as _summary_table
 from .common import ARM_MODELS, cuff_wrench, model_from_config
 
@@ -242,7 +242,8 @@ def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT
     bounds = np.cumsum([0] + [len(d.conditions) for d in datas])
     sims = {}
     for arm, model in models.items():
-        sol = solve(model, W, max_iterations=cfg.max_iterations)
+        # with friction each trial is its own loading path (docs/model.md section 12.2)
+        sol = solve_segments(model, W, bounds, max_iterations=cfg.max_iterations)
         if not np.all(sol.converged):
             i = int(np.argmin(sol.converged))
             t = int(np.searchsorted(bounds, i, side="right") - 1)

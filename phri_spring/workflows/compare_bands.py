@@ -15,7 +15,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import UsageError
-from ..physics.solver import solve
+from ..physics.solver import solve_segments
 from .common import model_from_config
 from .uncertain_draws import (PERCENTILES, check_fe_cache, draw_configs, parse_sd,
                               perturbed_text, reaches_model, uncertain_inputs)
@@ -69,10 +69,11 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
         F = np.empty((len(cfgs), len(W), cfg.n_elements))
         if reaches_model(cfg, inputs, arm):
             for d, c in enumerate(cfgs):
-                F[d] = solve(model_from_config(c, arm), W,
-                             max_iterations=cfg.max_iterations).forces
+                F[d] = solve_segments(model_from_config(c, arm), W, bounds,
+                                      max_iterations=cfg.max_iterations).forces
         else:       # nothing this arm uses scatters: every draw is the config itself
-            F[:] = solve(model_from_config(cfg, arm), W, max_iterations=cfg.max_iterations).forces
+            F[:] = solve_segments(model_from_config(cfg, arm), W, bounds,
+                                  max_iterations=cfg.max_iterations).forces
         for t, tc in enumerate(result.trials):
             Ft = F[:, bounds[t]:bounds[t + 1]]
             Z = Ft - Ft[:, tc.baseline_index][:, None, :]

@@ -123,6 +123,16 @@ class MonteCarloStream:
         self.noise_sd = inputs.noise_sd
         self.block_samples = max(1, _CHUNK_ENTRIES // (self.draws * cfg.n_elements))
         self.not_converged = 0
+        self._paths = {}   # draw -> its cache, kept only with friction (the path's state)
+
+    def _cache(self, d: int) -> FactorCache:
+        """Draw d's cache: a fresh one per block, except with friction, where each draw
+        runs the whole log as one loading path from the strap's state (docs/model.md 12.2)."""
+        if self.models[d].friction_coefficient is None:
+            return FactorCache()
+        if d not in self._paths:
+            self._paths[d] = FactorCache(64)
+        return self._paths[d]
 
     def block(self, number: int, wrench_lc):
         """Percentiles of block ``number`` (its samples in the load cell's units, (k, 6)).
@@ -139,9 +149,10 @@ class MonteCarloStream:
             if self.noise_sd.any():
                 rng = np.random.default_rng([self.seed, 1, d, int(number)])
                 wd = wd + rng.standard_normal(wd.shape) * self.noise_sd
-            # a cache of its own: a draw's model is not the next draw's
+            # a cache of its own: a draw's model is not the next draw's; with friction the
+            # draw's cache also carries its loading path from block to block
             chunk = _solve_chunk(self.models[d], cuff_wrench(cfg, wd), None,
-                                 cfg.max_iterations, FactorCache())
+                                 cfg.max_iterations, self._cache(d))
             F[d] = chunk.forces
             R[d] = chunk.extras()[0]["peak_pressure_to_pain_threshold"]
             self.not_converged += int((~chunk.solution.converged).sum())

@@ -1,0 +1,129 @@
+"""Speed of Coulomb friction (docs/model.md section 12) on a one-hour log.
+
+    python benchmarks/friction_benchmark.py [--repeats 3] [--mu 0.5] [--out benchmarks/FRICTION.md]
+
+The one-hour log is ``examples/wrench_log.csv`` (the paper's horizontal I-Act loading at
+100 Hz, 46 s) repeated to 360,000 samples, times running on: a realistic load history
+with lift-off at every 55.6 N step. For each preset and arm it times, in this process,
+``solve`` on the whole log bonded (no key) and with ``interface.friction_coefficient``
+(median of ``--repeats``, the two interleaved), counts the samples that needed an event
+solve and the ones that did not converge, and times ``phri simulate`` end to end with
+friction (CSV in, CSV out) for the compliant arm. Writes a markdown table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from phri_spring.io.config import load_config  # noqa: E402
+from phri_spring.physics.solver import solve  # noqa: E402
+from phri_spring.workflows.common import cuff_wrench, model_from_config  # noqa: E402
+
+COLS = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
+SAMPLES = 360_000
+
+
+def one_hour_log():
+    df = pd.read_csv(ROOT / "examples" / "wrench_log.csv", comment="#")
+    reps = -(-SAMPLES // len(df))
+    W = np.tile(df[COLS].to_numpy(), (reps, 1))[:SAMPLES]
+    t = np.round(np.arange(SAMPLES) / 100.0, 2)
+    return t, W
+
+
+def timed(fn, repeats):
+    out = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        res = fn()
+        out.append(time.perf_counter() - t0)
+    return statistics.median(out), res
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--mu", type=float, default=0.5)
+    ap.add_argument("--out", type=Path, default=None)
+    args = ap.parse_args()
+    t, W_lc = one_hour_log()
+    rows = []
+    for preset in ("human_upper_arm", "harmony_upper_arm"):
+        base = load_config(ROOT / "configs" / f"{preset}.yaml")
+        fric = dataclasses.replace(base, friction_coefficient=args.mu)
+        W = cuff_wrench(base, W_lc)
+        for arm in ("compliant", "rigid", "coupled"):
+            bonded_model = model_from_config(base, arm)
+            fric_model = model_from_config(fric, arm)
+            solve(fric_model, W[:2000])      # warm: imports, FE cache
+            tb, tf = [], []
+            sol = None
+            for _ in range(args.repeats):     # interleaved: drift touches both alike
+                tb.append(timed(lambda: solve(bonded_model, W), 1)[0])
+                dt, sol = timed(lambda: solve(fric_model, W), 1)
+                tf.append(dt)
+            tb, tf = statistics.median(tb), statistics.median(tf)
+            events = int((sol.iterations > 1).sum())
+            rows.append((preset, arm, tb, tf, events, int((~sol.converged).sum())))
+            print(rows[-1], flush=True)
+    # end to end: phri simulate with friction, compliant arm, CSV -> CSV
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        log = tmp / "log_1h.csv"
+        df = pd.DataFrame(W_lc, columns=COLS)
+        df.insert(0, "time", t)
+        df.to_csv(log, index=False)
+        import yaml
+
+        raw = yaml.safe_load((ROOT / "configs" / "human_upper_arm.yaml").read_text())
+        raw.setdefault("interface", {})["friction_coefficient"] = args.mu
+        cfg = tmp / "human_mu.yaml"
+        cfg.write_text(yaml.safe_dump(raw))
+        cmd = [sys.executable, "-c", "from phri_cli.main import phri; phri()", "simulate",
+               str(cfg), str(log), "-o", str(tmp / "out.csv")]
+        env = dict(os.environ, PYTHONPATH=str(ROOT))
+        walls = []
+        for _ in range(args.repeats):
+            t0 = time.perf_counter()
+            subprocess.run(cmd, check=True, env=env, stdout=subprocess.DEVNULL,
+                           stderr=subprocess.DEVNULL)
+            walls.append(time.perf_counter() - t0)
+        e2e = statistics.median(walls)
+    lines = [
+        f"One-hour log: {SAMPLES:,} samples (examples/wrench_log.csv repeated), mu = {args.mu}, "
+        f"median of {args.repeats}, bonded and friction interleaved. Machine: "
+        f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"numpy {np.__version__}.",
+        "",
+        "| preset | arm | bonded `solve` [s] | friction `solve` [s] | friction samples/s | "
+        "friction / bonded time | event samples | not converged |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for preset, arm, tb, tf, ev, nc in rows:
+        lines.append(f"| {preset} | {arm} | {tb:.2f} | {tf:.2f} | {SAMPLES / tf:,.0f} | "
+                     f"{tf / tb:.1f}x | {ev:,} ({100 * ev / SAMPLES:.1f} %) | {nc} |")
+    lines += ["", f"`phri simulate` end to end with friction (human preset, compliant arm, "
+              f"CSV in and out, 1 h): {e2e:.1f} s (median of {args.repeats})."]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    if args.out:
+        args.out.write_text(args.out.read_text() + "\n" + text if args.out.exists() else text)
+
+
+if __name__ == "__main__":
+    main()
