@@ -123,14 +123,9 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     R, c, Pn, Pt, slide, dirn, tn = forces(u)
     res = np.abs(R).max()
     its = 0
-    polished = False
     history = []
-    while its < _MAX_STEPS:
-        if res <= tol:
-            if polished:
-                break
-            polished = True   # one more step: the residual down to round-off
-        elif len(history) >= _STALL and res > 0.5 * history[-_STALL]:
+    while its < _MAX_STEPS and res > tol:   # tol is round-off: Newton ends quadratically
+        if len(history) >= _STALL and res > 0.5 * history[-_STALL]:
             # no progress: typically a load friction cannot hold (the cuff would slide
             # along or around the arm), which has no equilibrium
             break
@@ -151,13 +146,11 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
         while True:
             cand = forces(u + step * du)
             new_res = np.abs(cand[0]).max()
-            if new_res < res or step < 1e-4 or (polished and new_res <= tol):
+            if new_res < res or step < 1e-4:
                 break
             step *= 0.5
         u = u + step * du
         R, c, Pn, Pt, slide, dirn, tn = cand
-        if new_res >= res and res <= tol:
-            break
         res = new_res
     ok = res <= tol * 10 and np.all(np.isfinite(u))
     if not ok:
