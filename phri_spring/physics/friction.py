@@ -39,171 +39,20 @@ the next sample starts from the last consistent state.
 
 from __future__ import annotations
 
-import warnings
-from dataclasses import dataclass
-
 import numpy as np
-from scipy.linalg import LinAlgWarning, cho_factor, cho_solve, lu_factor, lu_solve
+from scipy.linalg import cho_factor, cho_solve
 
-from .geometry import element_jacobians
+from .friction_events import solve_event_coupled, solve_event_elements
+# the shared pieces, importable from here too
+from .friction_form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
+                            PathState, _scales, initial_state, interface_form)
 
 __all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "solve_path",
            "RELEASED", "STUCK", "SLIDING"]
 
-RELEASED, STUCK, SLIDING = 0, 1, 2
-#: relative tolerance of the state checks (forces against the sample's force scale)
-STATE_RTOL = 1e-9
 #: samples solved together while the state holds
 _BLOCK = 4096
 _FIRST_BLOCK = 8
-
-
-@dataclass(frozen=True, eq=False)
-class InterfaceForm:
-    """An arm model in compliance form (see the module docstring), local axes, SI units.
-
-    Attributes
-    ----------
-    n, d : int
-        Patches (elements) and dofs per patch (3 or 6).
-    C : ndarray, shape (n d, n d)
-        Total compliance [m/N, rad/(N*m)].
-    C_skin : ndarray, shape (n d, n d), or None
-        Compliance of the skin alone (the coupled model's C_t): how pressing patches move
-        the skin under a released one. None: a released element's skin does not move.
-    T : ndarray, shape (n d, 6)
-    delta : ndarray, shape (n d,)
-    W_pre : ndarray, shape (6,)
-    mu : float
-        Coulomb coefficient [-].
-    diagonal : bool
-        C is diagonal (the spring model).
-    """
-
-    n: int
-    d: int
-    C: np.ndarray
-    C_skin: np.ndarray | None
-    T: np.ndarray
-    delta: np.ndarray
-    W_pre: np.ndarray
-    mu: float
-    diagonal: bool
-
-    @property
-    def normal(self) -> np.ndarray:
-        return np.arange(self.n) * self.d
-
-
-def interface_form(model) -> InterfaceForm:
-    """The compliance form of a spring or coupled model with ``friction_coefficient`` set."""
-    mu = float(model.friction_coefficient)
-    if hasattr(model, "K_t"):        # the coupled model: already in this form
-        return InterfaceForm(n=model.n, d=model.dofs, C=model.C, C_skin=model.C_t, T=model.T,
-                             delta=model.delta, W_pre=model.W_pre, mu=mu, diagonal=False)
-    g = model.geometry
-    n = g.n
-    B = element_jacobians(g.points)                                   # (n, 3, 6)
-    a = np.array([1.0, 0.0, 0.0])
-    circ = np.cross(g.normals, a)
-    T = np.stack([g.b, B[:, 0, :], np.einsum("ei,eij->ej", circ, B)], axis=1).reshape(3 * n, 6)
-    comp = np.stack([1.0 / model.k, 1.0 / model.k_shear, 1.0 / model.k_shear], axis=1).ravel()
-    delta = np.zeros((n, 3))
-    delta[:, 0] = model.delta0
-    return InterfaceForm(n=n, d=3, C=np.diag(comp), C_skin=None, T=T, delta=delta.ravel(),
-                         W_pre=model.W_pre, mu=mu, diagonal=True)
-
-
-@dataclass
-class PathState:
-    """Where the loading path has left the interface (carried from sample to sample).
-
-    Attributes
-    ----------
-    cls : ndarray of int, shape (n,)
-        RELEASED, STUCK or SLIDING.
-    z : ndarray, shape (n, d)
-        Offset of each patch's tie [m, rad]: the slip accumulated on its tangential dofs
-        and, for a patch that came back, where it landed (0 on the normal dof).
-    s : ndarray, shape (n, 2)
-        Slip direction of the sliding patches (unit).
-    u, P : ndarray, shape (6,), (n d,)
-        The last sample's solution (a patch that comes back lands where it was then).
-    """
-
-    cls: np.ndarray
-    z: np.ndarray
-    s: np.ndarray
-    u: np.ndarray
-    P: np.ndarray
-
-    def copy(self) -> "PathState":
-        return PathState(self.cls.copy(), self.z.copy(), self.s.copy(), self.u.copy(),
-                         self.P.copy())
-
-
-def initial_state(form: InterfaceForm) -> PathState:
-    """The strap's state at zero wrench: every patch stuck where the strap put it, no slip."""
-    n, d = form.n, form.d
-    return PathState(cls=np.full(n, STUCK), z=np.zeros((n, d)), s=np.zeros((n, 2)),
-                     u=np.zeros(6), P=np.zeros(n * d))
-
-
-# --------------------------------------------------------------------------- one state
-def _solve_state(form: InterfaceForm, r, cls, z, s):
-    """(u, P) of one wrench r (6,) in a fixed state; None if the state holds no cuff."""
-    n, d, mu = form.n, form.d, form.mu
-    N = n * d
-    A = np.zeros((N + 6, N + 6))
-    b = np.zeros(N + 6)
-    dof = np.arange(N).reshape(n, d)
-    tied = np.zeros((n, d), dtype=bool)
-    tied[cls == STUCK] = True
-    tied[cls == SLIDING] = True
-    tied[cls == SLIDING, 1:3] = False
-    ti = dof[tied]
-    A[ti, :N] = form.C[ti]
-    A[ti, N:] = -form.T[ti]
-    b[ti] = form.delta[ti] - z.ravel()[ti]
-    free = dof[cls == RELEASED].ravel()
-    A[free, free] = 1.0
-    sl = np.flatnonzero(cls == SLIDING)
-    for j in (1, 2):
-        rows = dof[sl, j]
-        A[rows, rows] = 1.0
-        A[rows, dof[sl, 0]] = -mu * s[sl, j - 1]
-    A[N:, :N] = form.T.T
-    b[N:] = r
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", LinAlgWarning)
-            x = lu_solve(lu_factor(A, check_finite=False), b, check_finite=False)
-    except (np.linalg.LinAlgError, ValueError, LinAlgWarning):
-        return None
-    if not np.all(np.isfinite(x)):
-        return None
-    x[free] = 0.0   # exactly: pivoting can leave round-off on the rows that say P_e = 0
-    return x[N:], x[:N]
-
-
-def _relative(form: InterfaceForm, u, P):
-    """Cuff-side minus skin-side motion of every dof not carried by the cuff spring,
-    (T u + delta - C P) (n d,): the tie's offset a patch would need to carry P."""
-    return form.T @ u + form.delta - form.C @ P
-
-
-def _scales(form: InterfaceForm, r):
-    force = np.abs(r).max() + np.abs(form.W_pre).max() + 1e-300
-    return force, force * np.abs(np.diag(form.C)).max()
-
-
-def _land(form: InterfaceForm, z, e, rel_prev):
-    """Patches e come back: tied where they are relative to the cuff (no tangential force
-    or moment at touch-down), the normal dof untouched."""
-    d = form.d
-    r = rel_prev.reshape(form.n, d)
-    z[e, 1:] = r[e, 1:]
-    z[e, 0] = 0.0
 
 
 # --------------------------------------------------------------------------- blocks
@@ -315,8 +164,6 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + 1e-300
     f_tol = STATE_RTOL * scale
     x_tol = f_tol * (xs / fs)
-    from .friction_events import solve_event_coupled, solve_event_elements
-
     i = 0
     width = _FIRST_BLOCK
     while i < m:

@@ -23,7 +23,7 @@ import warnings
 import numpy as np
 from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
 
-from .friction import (PathState, RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,
+from .friction_form import (PathState, RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,
                        _relative, _scales, _solve_state)
 
 __all__ = ["solve_event_elements", "solve_event_coupled"]
