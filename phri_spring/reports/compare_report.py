@@ -115,7 +115,11 @@ def compare_report(cfg, manifest, *, arms: Sequence[str], n_trials: int, baselin
         (f": {man.description.strip()}" if man.description.strip() else ""),
         f"- trials: {n_trials}; elements: {len(cfg.labels)} "
         f"({cfg.labels[0]}..{cfg.labels[-1]}); arm models: {', '.join(arms)}",
-        f"- tissue stiffness: {tissue}",
+        f"- tissue stiffness: {tissue}; tissue law: {cfg.tissue_law}",
+        "- interface: " + ("bonded shear springs (the paper's)" if cfg.friction_coefficient is None
+                           else f"Coulomb friction, mu = {cfg.friction_coefficient:g}, each "
+                           f"trial's conditions solved in order as one loading path "
+                           f"(docs/model.md section 12)"),
         f"- baseline condition(s): {', '.join(baselines)}",
         "",
         "Method: each condition's measured loads and wrench are the means over its rows; the "
