@@ -64,7 +64,7 @@ class FactorCache:
     (True, 'a', 2)
     """
 
-    __slots__ = ("_data", "maxsize", "hits", "misses", "path_state", "path_maps")
+    __slots__ = ("_data", "maxsize", "hits", "misses", "path_state", "path_maps", "path_form")
 
     def __init__(self, maxsize: int = 1 << 14):
         self._data: OrderedDict = OrderedDict()
@@ -76,6 +76,8 @@ class FactorCache:
         self.path_state = None
         #: with friction: the affine maps of the states met (state key -> maps)
         self.path_maps: dict = {}
+        #: with friction: (model, its compliance form), made once for the calls on one model
+        self.path_form = None
 
     def get(self, key: int):
         """The entry of ``key`` (marked most recently used), or None."""

@@ -18,13 +18,10 @@ Both end on the state they found, solved once more as a linear system in that st
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
-from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
 
 from .friction_form import (PathState, RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,
-                       _relative, _scales, _solve_state)
+                            _relative, _scales, _solve_state, lu_solve_or_none)
 
 __all__ = ["solve_event_elements", "solve_event_coupled"]
 
@@ -49,26 +46,17 @@ def _newton_step(K, R):
     return du
 
 
-class _Elements:
-    """The spring model's per-element arrays, ready for the return mapping."""
-
-    def __init__(self, form: InterfaceForm):
-        n = form.n
-        T = form.T.reshape(n, 3, 6)
-        self.Tn = np.ascontiguousarray(T[:, 0, :])
-        self.Tt = np.ascontiguousarray(T[:, 1:3, :].reshape(2 * n, 6))   # rows e-axial, e-circ
-        self.TtT = np.ascontiguousarray(self.Tt.T)
-        self.TnT = np.ascontiguousarray(self.Tn.T)
-        cdiag = np.diag(form.C).reshape(n, 3)
-        self.kn, self.kt = 1.0 / cdiag[:, 0], 1.0 / cdiag[:, 1]
-        self.dn = np.ascontiguousarray(form.delta.reshape(n, 3)[:, 0])
-        self.NN = (self.Tn[:, :, None] * self.Tn[:, None, :]).reshape(n, 36)
-        Tt3 = T[:, 1:3, :]
-        self.TT = np.einsum("eki,ekj->eij", Tt3, Tt3).reshape(n, 36)
-        self.Tt3 = Tt3
-
-
-_ELEMENTS: dict = {}
+def _line_search(evaluate, x, dx, res):
+    """Backtracking on the residual's largest entry: halve the step until the residual
+    falls (or the step is 1e-4). ``evaluate(x)`` returns a tuple led by the residual;
+    returns the new x, its evaluation and its residual."""
+    step = 1.0
+    while True:
+        cand = evaluate(x + step * dx)
+        new_res = np.abs(cand[0]).max()
+        if new_res < res or step < 1e-4:
+            return x + step * dx, cand, new_res
+        step *= 0.5
 
 
 def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
@@ -81,11 +69,7 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     on the residual, from ``u0`` (default: the last sample's u). Returns (u, P, new state,
     solves, ok) as :func:`solve_event`.
     """
-    el = _ELEMENTS.get(id(form))
-    if el is None or el[0] is not form:
-        _ELEMENTS.clear()
-        el = _ELEMENTS[id(form)] = (form, _Elements(form))
-    el = el[1]
+    el = form.elements
     n, mu = form.n, form.mu
     kn, kt, dn = el.kn, el.kt, el.dn
     # where each element's tie starts: stuck or sliding ones from their slip, released
@@ -141,17 +125,8 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
             dPt = (mu * kn[sl])[:, None, None] * dirn[:, :, None] * el.Tn[sl, None, :]
             dPt += ((mu * Pn[sl] / tn[sl]) * kt[sl])[:, None, None] * (proj @ Tts)
             K += np.einsum("eki,ekj->ij", Tts, dPt)
-        du = _newton_step(K, R)
-        step = 1.0
-        while True:
-            cand = forces(u + step * du)
-            new_res = np.abs(cand[0]).max()
-            if new_res < res or step < 1e-4:
-                break
-            step *= 0.5
-        u = u + step * du
+        u, cand, res = _line_search(forces, u, _newton_step(K, R), res)
         R, c, Pn, Pt, slide, dirn, tn = cand
-        res = new_res
     ok = res <= tol * 10 and np.all(np.isfinite(u))
     if not ok:
         return state.u, state.P, state, max(its, 1), False
@@ -269,25 +244,11 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
         history.append(res)
         its += 1
         J = jacobian(info)
-        try:
-            # scipy's LAPACK: numpy's threaded solve can stall on a busy machine at this size
-            with warnings.catch_warnings():
-                warnings.simplefilter("error", LinAlgWarning)
-                dx = lu_solve(lu_factor(J, check_finite=False), -phi, check_finite=False)
-        except (np.linalg.LinAlgError, ValueError, LinAlgWarning):
-            dx = None
-        if dx is None or not np.all(np.isfinite(dx)):
+        dx = lu_solve_or_none(J, -phi)
+        if dx is None:
             dx = np.linalg.lstsq(J, -phi, rcond=1e-12)[0]
-        step = 1.0
-        while True:
-            cand = residual(x + step * dx)
-            new_res = np.abs(cand[0]).max()
-            if new_res < res or step < 1e-4:
-                break
-            step *= 0.5
-        x = x + step * dx
+        x, cand, res = _line_search(residual, x, dx, res)
         phi, info = cand
-        res = new_res
     touch, slide, yh = info[0], info[1], info[2]
     cls = np.where(touch, np.where(slide, SLIDING, STUCK), RELEASED).astype(state.cls.dtype)
     return _finish(form, r, state, cls, z0, yh, its, res <= 1e3 * tol)

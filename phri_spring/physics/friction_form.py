@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
@@ -56,6 +57,30 @@ class InterfaceForm:
     @property
     def normal(self) -> np.ndarray:
         return np.arange(self.n) * self.d
+
+    @cached_property
+    def elements(self) -> "ElementArrays":
+        """The spring model's per-element arrays (diagonal C only), made once per form."""
+        return ElementArrays(self)
+
+
+class ElementArrays:
+    """The spring model's per-element arrays, ready for the return mapping."""
+
+    def __init__(self, form: "InterfaceForm"):
+        n = form.n
+        T = form.T.reshape(n, 3, 6)
+        self.Tn = np.ascontiguousarray(T[:, 0, :])
+        self.Tt = np.ascontiguousarray(T[:, 1:3, :].reshape(2 * n, 6))   # rows e-axial, e-circ
+        self.TtT = np.ascontiguousarray(self.Tt.T)
+        self.TnT = np.ascontiguousarray(self.Tn.T)
+        cdiag = np.diag(form.C).reshape(n, 3)
+        self.kn, self.kt = 1.0 / cdiag[:, 0], 1.0 / cdiag[:, 1]
+        self.dn = np.ascontiguousarray(form.delta.reshape(n, 3)[:, 0])
+        self.NN = (self.Tn[:, :, None] * self.Tn[:, None, :]).reshape(n, 36)
+        Tt3 = T[:, 1:3, :]
+        self.TT = np.einsum("eki,ekj->eij", Tt3, Tt3).reshape(n, 36)
+        self.Tt3 = Tt3
 
 
 def interface_form(model) -> InterfaceForm:
@@ -137,16 +162,23 @@ def _solve_state(form: InterfaceForm, r, cls, z, s):
         A[rows, dof[sl, 0]] = -mu * s[sl, j - 1]
     A[N:, :N] = form.T.T
     b[N:] = r
+    x = lu_solve_or_none(A, b)
+    if x is None:
+        return None
+    x[free] = 0.0   # exactly: pivoting can leave round-off on the rows that say P_e = 0
+    return x[N:], x[:N]
+
+
+def lu_solve_or_none(A, b):
+    """A x = b by scipy's LU (numpy's threaded solve can stall on a busy machine at the
+    coupled model's size); None for a singular A or a non-finite x."""
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", LinAlgWarning)
             x = lu_solve(lu_factor(A, check_finite=False), b, check_finite=False)
     except (np.linalg.LinAlgError, ValueError, LinAlgWarning):
         return None
-    if not np.all(np.isfinite(x)):
-        return None
-    x[free] = 0.0   # exactly: pivoting can leave round-off on the rows that say P_e = 0
-    return x[N:], x[:N]
+    return x if np.all(np.isfinite(x)) else None
 
 
 def _relative(form: InterfaceForm, u, P):

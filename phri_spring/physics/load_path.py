@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["force_parts", "load_shares"]
+from .solver import normal_forces
+
+__all__ = ["force_parts", "load_shares", "share_sums"]
 
 
 def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
@@ -50,9 +52,7 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
         fn = np.asarray(normal, dtype=float)
     else:
         ft = model.shear_components(u, S)
-        fn = None
-    if fn is None:
-        fn = _normal_forces(model, u, S)
+        fn = normal_forces(model, u)
     fn = np.where(S, fn, 0.0)
     vec_t = ft[..., 0, None] * np.array([1.0, 0.0, 0.0]) + ft[..., 1, None] * circ
     normal = np.einsum("me,ei->mi", fn, normals)
@@ -61,13 +61,15 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
     return np.stack([normal, touch, lifted], axis=1)
 
 
-def _normal_forces(model, u, S):
-    if hasattr(model, "K_t"):
-        return model.patch_forces(u, S)[..., 0]
-    g = model.delta0 + u @ model.bT
-    if model.is_linear:
-        return model.k * np.maximum(g, 0.0)
-    return model.element.force(g)
+def share_sums(parts: np.ndarray):
+    """(sum over samples of F_k . F (3,), sum of |F|^2) of ``parts`` (m, 3, 3) from
+    :func:`force_parts`, samples with a non-finite part left out: what the load-weighted
+    shares are the ratio of, and what a streamed run adds up chunk by chunk."""
+    F = parts.sum(axis=1)
+    proj = np.einsum("mki,mi->mk", parts, F)
+    mag2 = np.einsum("mi,mi->m", F, F)
+    ok = np.isfinite(proj).all(axis=1) & np.isfinite(mag2)
+    return proj[ok].sum(axis=0), float(mag2[ok].sum())
 
 
 def load_shares(parts: np.ndarray, weighted: bool = True):
@@ -77,12 +79,11 @@ def load_shares(parts: np.ndarray, weighted: bool = True):
     samples, each sample weighted by |F|^2 (the load-weighted mean, (3,)); otherwise per
     sample, (m, 3), NaN where no force is applied.
     """
+    if weighted:
+        proj, tot = share_sums(parts)
+        return proj / tot if tot > 0 else np.full(3, np.nan)
     F = parts.sum(axis=1)                                  # (m, 3)
     proj = np.einsum("mki,mi->mk", parts, F)
     mag2 = np.einsum("mi,mi->m", F, F)
-    if weighted:
-        ok = np.isfinite(proj).all(axis=1) & np.isfinite(mag2)
-        tot = mag2[ok].sum()
-        return proj[ok].sum(axis=0) / tot if tot > 0 else np.full(3, np.nan)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(mag2[:, None] > 0, proj / mag2[:, None], np.nan)

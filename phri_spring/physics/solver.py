@@ -471,8 +471,10 @@ def _solve_friction(model, W, single: bool, cache: FactorCache | None,
     from the state ``cache`` carries (a fresh cache: the strap's state at zero wrench)."""
     from .friction import interface_form, solve_path
 
-    form = interface_form(model)
     cache = FactorCache(0) if cache is None else cache
+    if cache.path_form is None or cache.path_form[0] is not model:
+        cache.path_form = (model, interface_form(model))
+    form = cache.path_form[1]
     with np.errstate(over="ignore", invalid="ignore"):
         r = W + model.W_pre
     finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= _HUGE)

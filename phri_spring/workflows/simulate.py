@@ -30,7 +30,7 @@ from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
-from ..physics.load_path import force_parts
+from ..physics.load_path import force_parts, share_sums
 from ..physics.model import SpringModel
 from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
@@ -536,9 +536,9 @@ class SummaryAccumulator:
         parts = force_parts(model, sol.u[ok], sol.contact[ok],
                             normal=sol.forces[ok] if tang is not None else None,
                             tangential=tang)
-        F = parts.sum(axis=1)
-        self._proj += np.einsum("mki,mi->k", parts, F)
-        self._mag2 += float(np.einsum("mi,mi->", F, F))
+        proj, mag2 = share_sums(parts)
+        self._proj += proj
+        self._mag2 += mag2
 
     def add_solution(self, sol) -> None:
         self.samples += len(sol.iterations)
