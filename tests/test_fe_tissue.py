@@ -111,7 +111,7 @@ def test_k_is_linear_in_e(harmony_l1):
 
 
 def test_rigid_cuff_motions_match_the_direct_fe(harmony_l1):
-    """T^T K T equals the stiffness of the cuff imposed directly on the tiled area.
+    """T^T K T equals the stiffness of the cuff imposed directly on the patches' plates.
 
     The L2 projection reproduces a field that is one rigid motion over all patches
     exactly (isoparametric quadratic mesh), so both are the same FE problem on the same
@@ -200,10 +200,11 @@ def test_rigid_cuff_patch_forces_shapes_and_equilibrium(harmony_l1):
     f = fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W)
     assert f.shape == (6, HARMONY.n)
     assert fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W[2]).shape == (HARMONY.n,)
-    # a +y force on the cuff is carried mostly by the patch whose inward normal is +y
-    # (B3, at 180 deg), in compression
+    # a +y force on the cuff is carried mostly by the patches whose inward normal is +y
+    # (location 3, at 180 deg), in compression (on this coarse mesh the gapped plates of
+    # the outer rows, wider than the middle row's, take a little more than B3)
     fy = fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W[1], N=harmony_l1.N)
-    assert np.argmax(fy) == HARMONY.labels.index("B3") and fy.max() > 0
+    assert HARMONY.labels[int(np.argmax(fy))][1:] == "3" and fy.max() > 0
 
 
 def test_translational_block_is_the_schur_complement():

@@ -102,6 +102,9 @@ class _Continuum(_Strict):
                                            json_schema_extra=_unit("Pa"))
     surface_stiffness: Optional[str] = None
     spread: Literal["mean", "per_patch"] = "mean"
+    #: free skin left between neighbouring patches (docs/coupled-fe.md); None: the FE's default
+    patch_gap: Optional[float] = Field(default=None, ge=0, allow_inf_nan=False,
+                                       json_schema_extra=_unit("m"))
 
 
 class _Tissue(_Strict):
@@ -235,6 +238,7 @@ class Config:
     continuum_young_modulus: Optional[float] = None    # [Pa] tissue.continuum.young_modulus
     continuum_surface_stiffness: Optional[Path] = None  # a user's FE export (.npz)
     continuum_spread: str = "mean"                     # mean | per_patch
+    continuum_patch_gap: Optional[float] = None        # [m] tissue.continuum.patch_gap
     friction_coefficient: Optional[float] = None       # [-] interface.friction_coefficient
     tissue_law: str = "linear"                         # a name of physics.tissue_laws.TISSUE_LAWS
     # the law's class: pickled by reference with the config, so that worker processes (a
@@ -404,6 +408,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         else float(cont.young_modulus),
         continuum_surface_stiffness=surface,
         continuum_spread="mean" if cont is None else cont.spread,
+        continuum_patch_gap=None if cont is None or cont.patch_gap is None
+        else float(cont.patch_gap),
         friction_coefficient=None if root.interface.friction_coefficient is None
         else float(root.interface.friction_coefficient),
         tissue_law=law, tissue_law_class=law_cls, tissue_law_parameters=law_params,

@@ -332,28 +332,13 @@ def check_elements(n_rows: int, n_angles: int, *, path=None) -> None:
 
 
 def fe_mesh_size(cfg, geometry=None) -> tuple:
-    """(hexahedra, dofs) of the built-in FE's mesh for a config, without building it.
-
-    The mesh of :func:`phri_spring.physics.fe_mesh._build_mesh` (its own breakpoints):
-    triquadratic hexahedra, the angular seam tied (dofs = 3 x nodes left).
-    """
-    import numpy as np
-
+    """(hexahedra, dofs) of the built-in FE's mesh for a config, without building it
+    (:func:`phri_spring.physics.fe_mesh.mesh_size` at the shipped level, with the config's
+    ``tissue.continuum.patch_gap``)."""
     from ..physics import fe_mesh
-    from ..physics.fe_tissue import DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL
     g = cfg.geometry() if geometry is None else geometry
-    level, t = DEFAULT_LEVEL, float(cfg.continuum_thickness)
-    th_c, th_s, _ = fe_mesh._distinct_angles(g)
-    xr, wr, _ = fe_mesh._distinct_rows(g)
-    ang = fe_mesh._angular_breakpoints(th_c, th_s, level)
-    ax = fe_mesh._axial_breakpoints(xr, wr, level, DEFAULT_LENGTH_FACTOR * t)
-    radius = float(g.radius[0])
-    h_surf = min(float(np.min(wr)), radius * float(np.min(th_s))) / level
-    n_r = max(2, level) * max(1, math.ceil(t / (fe_mesh._RADIAL_SIZE * level * h_surf) - 1e-9))
-    a, b = len(ax.nodes) - 1, len(ang.nodes) - 1
-    nodes = (2 * a + 1) * (2 * b + 1) * (2 * n_r + 1)
-    seam = (2 * a + 1) * (2 * n_r + 1)
-    return a * b * n_r, 3 * (nodes - seam)
+    return fe_mesh.mesh_size(g, float(cfg.continuum_thickness),
+                             patch_gap=cfg.continuum_patch_gap)
 
 
 def _fe_to_build(cfg, cache_dir=None) -> Optional[tuple]:
@@ -367,7 +352,8 @@ def _fe_to_build(cfg, cache_dir=None) -> Optional[tuple]:
     if len(set(g.radius.tolist())) != 1 or not 0 < cfg.continuum_thickness < radius \
             or not cfg.poisson_ratio < 0.5:
         return None      # the model's own checks refuse it with their message
-    key = cache_key(g, cfg.continuum_thickness, cfg.poisson_ratio)
+    key = cache_key(g, cfg.continuum_thickness, cfg.poisson_ratio,
+                    patch_gap=cfg.continuum_patch_gap)
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     if (folder / f"surface-stiffness-{key[:32]}.npz").is_file():
         return None

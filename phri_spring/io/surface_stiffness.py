@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import DataError
+from ..errors import ConfigError, DataError
 from ..physics import fe_tissue
 from .atomic import atomic_file
 
@@ -31,7 +31,8 @@ __all__ = ["CACHE_FORMAT_VERSION", "default_cache_dir", "cache_key", "load_or_bu
            "load_or_build", "load_surface_stiffness", "SYMMETRY_RTOL"]
 
 #: bump when the FE or the file layout changes: old cache entries are then ignored
-CACHE_FORMAT_VERSION = 1
+#: (3: patch gaps, tissue.continuum.patch_gap, and the angular seam at a patch edge)
+CACHE_FORMAT_VERSION = 3
 #: relative tolerance (of the largest entry) of the symmetry check of a user's K
 SYMMETRY_RTOL = 1e-8
 
@@ -51,13 +52,20 @@ def default_cache_dir() -> Path:
     return Path("~/.cache/phri-spring").expanduser()
 
 
+def _gap(patch_gap) -> float:
+    """The patch gap [m] the FE is built with: ``fe_tissue.DEFAULT_PATCH_GAP`` for None."""
+    return fe_tissue.DEFAULT_PATCH_GAP if patch_gap is None else float(patch_gap)
+
+
 def cache_key(geometry, thickness, poisson_ratio, *, level=fe_tissue.DEFAULT_LEVEL,
-              length_factor=fe_tissue.DEFAULT_LENGTH_FACTOR, ends="fixed") -> str:
+              length_factor=fe_tissue.DEFAULT_LENGTH_FACTOR, ends="fixed",
+              patch_gap=None) -> str:
     """SHA-256 (hex) of everything the E = 1 matrices depend on.
 
     Geometry arrays (labels, x, radius, row width, theta, span, points), thickness,
-    Poisson ratio, mesh level, modelled length, end condition and the format version.
-    Young's modulus is not part of it (K is linear in E).
+    Poisson ratio, mesh level, modelled length, end condition, patch gap (None: the
+    default, ``fe_tissue.DEFAULT_PATCH_GAP``) and the format version. Young's modulus is
+    not part of it (K is linear in E).
     """
     h = hashlib.sha256()
     h.update(f"phri-spring surface stiffness v{CACHE_FORMAT_VERSION}\n".encode())
@@ -67,7 +75,7 @@ def cache_key(geometry, thickness, poisson_ratio, *, level=fe_tissue.DEFAULT_LEV
         h.update(name.encode())
         h.update(str(arr.shape).encode())
         h.update(arr.tobytes())
-    for value in (thickness, poisson_ratio, length_factor):
+    for value in (thickness, poisson_ratio, length_factor, _gap(patch_gap)):
         h.update(np.float64(value).tobytes())
     h.update(f"level={int(level)};ends={ends}".encode())
     return h.hexdigest()
@@ -107,7 +115,7 @@ def _write_cache(path: Path, key: str, K1, N1, info) -> str | None:
 def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *,
                             cache_dir=None, level: int = fe_tissue.DEFAULT_LEVEL,
                             length_factor: float = fe_tissue.DEFAULT_LENGTH_FACTOR,
-                            ends: str = "fixed") -> fe_tissue.SurfaceOperators:
+                            ends: str = "fixed", patch_gap=None) -> fe_tissue.SurfaceOperators:
     """The built-in FE's condensed surface stiffness and normal-force output, cached on disk.
 
     Parameters
@@ -123,6 +131,9 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
         Cache folder; default :func:`default_cache_dir`.
     level, length_factor, ends
         FE settings, see :func:`phri_spring.physics.fe_tissue.condensed_surface_operators`.
+    patch_gap : float, optional
+        Free skin between neighbouring patches [m] (``tissue.continuum.patch_gap``); None:
+        ``fe_tissue.DEFAULT_PATCH_GAP``.
 
     Returns
     -------
@@ -138,6 +149,8 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
     ------
     ValueError
         Thickness, E or nu out of range, rows of different radii.
+    ConfigError
+        ``tissue.continuum.patch_gap``: a gap that leaves a patch no plate.
     UsageError
         The FE has to be built and scikit-fem (extra ``fe``) is not installed.
     """
@@ -145,9 +158,13 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
     fe_tissue.check_material(thickness=thickness, poisson_ratio=poisson_ratio,
                              young_modulus=young_modulus,
                              radius=fe_tissue.single_radius(geometry))
+    gap = _gap(patch_gap)
+    problem = fe_tissue.patch_gap_problem(geometry, gap)
+    if problem is not None:
+        raise ConfigError(problem, key="tissue.continuum.patch_gap")
     n = geometry.n
     key = cache_key(geometry, thickness, poisson_ratio, level=level,
-                    length_factor=length_factor, ends=ends)
+                    length_factor=length_factor, ends=ends, patch_gap=gap)
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     path = folder / f"surface-stiffness-{key[:32]}.npz"
     hit = _read_cache(path, key, n)
@@ -158,7 +175,7 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
     else:
         ops = fe_tissue.condensed_surface_operators(geometry, thickness, 1.0, poisson_ratio,
                                                     level=level, length_factor=length_factor,
-                                                    ends=ends)
+                                                    ends=ends, patch_gap=gap)
         K1, N1 = ops.K, ops.N
         info = dict(ops.info, source="built")
         info["cache_error"] = _write_cache(path, key, K1, N1, ops.info)

@@ -20,7 +20,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .fe_mesh import _build_mesh, _periodic_map, _reduce_matrix, _reduce_rows, _skfem
+from .fe_mesh import (DEFAULT_PATCH_GAP, _build_mesh, _periodic_map, _reduce_matrix,
+                      _reduce_rows, _skfem)
 from .geometry import rigid_body_map
 
 __all__ = ["TissueFE", "assemble_tissue_fe"]
@@ -223,7 +224,8 @@ class TissueFE:
 
 
 def assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends, *,
-                       patch_modes: bool = True) -> TissueFE:
+                       patch_modes: bool = True,
+                       patch_gap: float = DEFAULT_PATCH_GAP) -> TissueFE:
     """Mesh, assemble (E = 1 Pa) and tie the seam of the tissue under a cuff.
 
     Parameters
@@ -242,12 +244,15 @@ def assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor,
         The two end faces of the modelled tissue tube: clamped or traction-free.
     patch_modes : bool, optional
         Assemble B, the loads of the patches' rigid modes (else ``B`` is None).
+    patch_gap : float, optional
+        Free skin between neighbouring patches' plates [m]
+        (:func:`~phri_spring.physics.fe_mesh.patch_plates`).
 
     Returns
     -------
     TissueFE
     """
-    tm = _build_mesh(geometry, thickness, level, length_factor)
+    tm = _build_mesh(geometry, thickness, level, length_factor, patch_gap)
     ib, Kfull = _assemble(tm, poisson_ratio, ends)
     M, B, C = _surface_forms(tm, geometry, ib, rigid=patch_modes)
     g, n_red = _periodic_map(tm.comp, tm.thickness)

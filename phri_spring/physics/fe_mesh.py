@@ -2,9 +2,10 @@
 
 The structured, graded mesh of triquadratic hexahedra between the bone (r = R - t)
 and the skin (r = R) in cylindrical coordinates, the skin facets under each cuff
-patch, and the renumbering that ties the angular seam into a closed tube, with the
-checks of the FE's inputs. :mod:`phri_spring.physics.fe_assembly` assembles on this mesh;
-see ``docs/coupled-fe.md``, "The mesh", for the grading.
+patch's rigid plate (its cell, less the strips of free skin a patch gap opens between
+neighbours: :func:`patch_plates`), and the renumbering that ties the angular seam into a
+closed tube, with the checks of the FE's inputs. :mod:`phri_spring.physics.fe_assembly`
+assembles on this mesh; see ``docs/coupled-fe.md``, "The mesh" and "Patch gaps".
 
 scikit-fem is an optional dependency (extra ``fe``), imported only inside the
 functions that need it.
@@ -18,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import UsageError
+from ..errors import ModelInputError, UsageError
 
 FE_EXTRA_HINT = "the coupled model's built-in FE needs scikit-fem: pip install -e .[fe]"
 
@@ -26,6 +27,10 @@ FE_EXTRA_HINT = "the coupled model's built-in FE needs scikit-fem: pip install -
 DEFAULT_LEVEL = 3
 #: Tissue modelled beyond each axial edge of the cuff, in tissue thicknesses.
 DEFAULT_LENGTH_FACTOR = 6.0
+#: Free skin left between neighbouring patches when ``tissue.continuum.patch_gap`` is not
+#: given [m]: the smallest gap for which the presets' patch forces converge with the mesh
+#: (docs/coupled-fe.md, "Patch gaps"; benchmarks/FE_CONVERGENCE.md section 7).
+DEFAULT_PATCH_GAP = 0.002
 
 _RIGID_TOL = 1e-9
 # mesh grading (see docs/coupled-fe.md, "The mesh"): element sizes in units of the
@@ -151,16 +156,17 @@ def _gap_sizes(length, h_lo, h_hi, h_max):
     return sizes / sizes.sum() * length
 
 
-def _line_nodes(lo, hi, level, h_max, start, end, start_free, end_free):
+def _line_nodes(lo, hi, level, h_max, start, end, start_free, end_free, start_h=None):
     """Element boundaries over [start, end] for sorted, non-overlapping patch intervals.
 
     ``start_free`` / ``end_free``: the first / last patch's outer edge borders free skin
-    even where it coincides with ``start`` / ``end``. Returns the nodes and the sizes of
-    the elements at the first patch's low edge and the last patch's high edge.
+    even where it coincides with ``start`` / ``end``. ``start_h``: the element size just
+    before ``start`` (default ``h_max``). Returns the nodes and the sizes of the elements
+    at the first patch's low edge and the last patch's high edge.
     """
     m = len(lo)
     nodes = [start]
-    cur, cur_h = start, h_max
+    cur, cur_h = start, (h_max if start_h is None else start_h)
     first_edge_h = last_edge_h = None
     for k in range(m):
         gap_before = lo[k] - cur
@@ -185,13 +191,35 @@ def _line_nodes(lo, hi, level, h_max, start, end, start_free, end_free):
     return np.array(nodes), first_edge_h, last_edge_h
 
 
-def _angular_breakpoints(theta, span, level):
+def _open_gaps(lo, hi, gap, period=None):
+    """The plates in sorted, non-overlapping cells [lo, hi]: strips of free skin opened.
+
+    Where two neighbouring cells are closer than ``gap`` (tiled cells: 0 apart), each
+    gives up half of the difference, so that ``gap`` of free skin separates their
+    plates; a cell edge with no neighbour closer than ``gap`` (the cuff's outer edges)
+    stays. ``period``: the coordinate is periodic (the last cell neighbours the first).
+    """
+    lo, hi = np.array(lo, float), np.array(hi, float)
+    m = len(lo)
+    pairs = [(k, k + 1, 0.0) for k in range(m - 1)]
+    if period is not None and m > 1:
+        pairs.append((m - 1, 0, period))
+    for a, b, wrap in pairs:
+        cut = max(0.0, gap - (lo[b] + wrap - hi[a])) / 2
+        hi[a] -= cut
+        lo[b] += cut
+    return lo, hi
+
+
+def _angular_breakpoints(theta, span, level, gap=0.0):
     """Element boundaries in theta over one full turn [theta_seam, theta_seam + 2 pi].
 
     Parameters
     ----------
     theta, span : ndarray, shape (m,)
         Centre and width of the m distinct angular locations [rad].
+    gap : float
+        Free skin opened between neighbouring patches [rad] (:func:`_open_gaps`).
     """
     two_pi = 2 * np.pi
     order = np.argsort(np.mod(theta, two_pi))
@@ -208,19 +236,25 @@ def _angular_breakpoints(theta, span, level):
         if hi[k] > nxt + 1e-9:
             raise ValueError("cuff patches overlap in angle; expected patches that tile or "
                              "leave gaps (angle width <= angle step)")
+    h_max = _FREE_SIZE * float(np.min(s)) / level
+    lo, hi = _open_gaps(lo, hi, float(gap), two_pi)      # the plates in the cells
+    s = hi - lo
     gaps = np.array([lo[(k + 1) % m] + (two_pi if k == m - 1 else 0.0) - hi[k]
                      for k in range(m)])
     gaps[np.abs(gaps) < 1e-9] = 0.0
-    h_max = _FREE_SIZE * float(np.min(s)) / level
-    # seam: the middle of the largest gap (or a patch edge when the patches close the circle)
+    # seam: the patch edge where the widest stretch of free skin starts; the walk round the
+    # circle ends there, so that stretch is meshed as any other (from the last patch's edge
+    # element), and patches with equal gaps closing the circle get a cyclic mesh
     kg = int(np.argmax(gaps))
-    seam = hi[kg] + gaps[kg] / 2
+    seam = hi[kg]
     # patches in walking order from the seam, unwrapped to [seam, seam + 2 pi]
     idx = [(kg + 1 + i) % m for i in range(m)]
     a = np.array([lo[k] for k in idx])
     a = seam + np.mod(a - seam + 1e-9, two_pi) - 1e-9
     b = a + s[idx]
-    nodes, _, _ = _line_nodes(a, b, level, h_max, seam, seam + two_pi, False, False)
+    free = bool(gaps[kg] > 0)
+    _, _, h_end = _line_nodes(a, b, level, h_max, seam, seam + two_pi, False, free)
+    nodes, _, _ = _line_nodes(a, b, level, h_max, seam, seam + two_pi, False, free, h_end)
     nodes[-1] = seam + two_pi
     lo_out = np.empty(m)
     hi_out = np.empty(m)
@@ -244,7 +278,8 @@ def _graded(length, h0, ratio):
     return np.array(pos)
 
 
-def _axial_breakpoints(x, width, level, extension, ratio=_AXIAL_GROWTH):
+def _axial_breakpoints(x, width, level, extension, ratio=_AXIAL_GROWTH, gap=0.0):
+    """Element boundaries along the arm; ``gap`` [m]: free skin opened between rows."""
     order = np.argsort(x)
     lo, hi = x[order] - width[order] / 2, x[order] + width[order] / 2
     for k in range(len(lo) - 1):
@@ -252,6 +287,7 @@ def _axial_breakpoints(x, width, level, extension, ratio=_AXIAL_GROWTH):
             raise ValueError("cuff rows overlap along the arm; expected rows that tile or "
                              "leave gaps (row distance >= row width)")
     h_max = _FREE_SIZE * float(np.min(width)) / level
+    lo, hi = _open_gaps(lo, hi, float(gap))               # the plates in the rows
     inner, h_first, h_last = _line_nodes(lo, hi, level, h_max, lo[0], hi[-1], True, True)
     ext_lo = _graded(extension, h_first, ratio)
     ext_hi = _graded(extension, h_last, ratio)
@@ -270,6 +306,7 @@ class _TissueMesh:
     patch_facets: list        # per patch: facet indices on the skin under it
     cuff_facets: np.ndarray
     x_range: tuple
+    patch_gap: float = 0.0    # free skin between neighbouring patches' plates [m]
 
 
 def _distinct_angles(geometry):
@@ -301,6 +338,98 @@ def single_radius(geometry) -> float:
     return float(R[0])
 
 
+def _plates_1d(c, w, gap, period=None):
+    """Plate bounds (lo, hi) of cells of centre c and width w (any order) for a gap."""
+    key = np.mod(c, period) if period is not None else c
+    order = np.argsort(key)
+    lo, hi = _open_gaps(key[order] - w[order] / 2, key[order] + w[order] / 2, gap, period)
+    lo_out, hi_out = np.empty(len(c)), np.empty(len(c))
+    lo_out[order], hi_out[order] = lo, hi
+    return lo_out, hi_out
+
+
+def _no_plate(c, w, gap, period):
+    """Index of the first cell a gap leaves without a plate, and the largest gap that leaves
+    every cell a plate (bisection: the plates shrink monotonically with the gap); (None,
+    None) for overlapping cells, which the mesh refuses with its own message."""
+    lo, hi = _plates_1d(c, w, 0.0, period)
+    key = np.mod(c, period) if period is not None else c
+    o = np.argsort(key)
+    wrap = lo[o][0] + period if period is not None and len(c) > 1 else np.inf
+    nxt = np.append(lo[o][1:], wrap)
+    if np.any(hi[o] > nxt + 1e-9):
+        return None, None
+
+    def left(g):
+        lo, hi = _plates_1d(c, w, g, period)
+        return (hi - lo) / w
+    short = np.nonzero(left(gap) <= 1e-6)[0]
+    if not len(short):
+        return None, None
+    a, b = 0.0, gap
+    for _ in range(60):
+        mid = 0.5 * (a + b)
+        a, b = (mid, b) if np.all(left(mid) > 1e-6) else (a, mid)
+    return int(short[0]), a
+
+
+def patch_gap_problem(geometry, patch_gap):
+    """Why a gap cannot be opened between the patches of a geometry (one line), or None.
+
+    Parameters
+    ----------
+    geometry : CuffGeometry
+    patch_gap : float
+        Free skin between neighbouring patches [m] (around the arm: the arc on r = R).
+    """
+    g = float(patch_gap)
+    if not (math.isfinite(g) and g >= 0):
+        return f"expected a finite width >= 0 m, got {patch_gap!r}"
+    R = single_radius(geometry)
+    th_c, th_s, _ = _distinct_angles(geometry)
+    xr, wr, _ = _distinct_rows(geometry)
+    for c, w, scale, period, what in ((xr, wr, 1.0, None, "along the arm"),
+                                      (th_c, th_s, R, 2 * np.pi, "around the arm")):
+        k, g_max = _no_plate(c, w, g / scale, period)
+        if k is not None:
+            where = (f"the row at x = {c[k] * 1e3:g} mm" if period is None
+                     else f"the patches at {np.degrees(c[k]):g} deg")
+            return (f"a gap of {g * 1e3:g} mm leaves no plate of {where} "
+                    f"({w[k] * scale * 1e3:.4g} mm wide {what}); expected a gap below "
+                    f"{g_max * scale * 1e3:.4g} mm (0: tiled patches)")
+    return None
+
+
+def patch_plates(geometry, patch_gap):
+    """Where each patch's rigid plate lies in its cell once ``patch_gap`` is opened.
+
+    Neighbouring cells closer than the gap (tiled cells: touching) each give up half of
+    the difference; edges with no neighbour that close (the cuff's outer edges) stay.
+
+    Returns
+    -------
+    x_lo, x_hi, theta_lo, theta_hi : ndarray, shape (n,)
+        Per patch, in label order: the plate's extent along the arm [m] and around it
+        [rad] (theta_lo may be negative or theta_hi above 2 pi: the cell's own branch).
+
+    Raises
+    ------
+    ModelInputError
+        ``quantity='patch_gap'``: a gap that leaves a patch no plate (or is negative).
+    """
+    problem = patch_gap_problem(geometry, patch_gap)
+    if problem is not None:
+        raise ModelInputError(f"patch_gap: {problem}", "patch_gap")
+    R = single_radius(geometry)
+    g = float(patch_gap)
+    th_c, th_s, th_inv = _distinct_angles(geometry)
+    xr, wr, x_inv = _distinct_rows(geometry)
+    xl, xh = _plates_1d(xr, wr, g)
+    tl, th = _plates_1d(th_c, th_s, g / R, 2 * np.pi)
+    shift = np.asarray(geometry.theta, float) - th_c[th_inv]     # back to each cell's branch
+    return xl[x_inv], xh[x_inv], tl[th_inv] + shift, th[th_inv] + shift
+
+
 def _radial_nodes(R, t, n_r, ratio=1.0):
     if ratio == 1.0:
         return np.linspace(R - t, R, n_r + 1)
@@ -310,22 +439,49 @@ def _radial_nodes(R, t, n_r, ratio=1.0):
     return np.concatenate([[R - t], R - t + np.cumsum(sizes)])
 
 
-def _build_mesh(geometry, thickness, level, length_factor):
-    sk = _skfem()
+def _mesh_lines(geometry, thickness, level, length_factor, patch_gap):
+    """The breakpoints of the mesh along the arm, around it and through the thickness."""
     R = single_radius(geometry)
     check_material(thickness=thickness, radius=R)
     level = int(level)
     if level < 1:
         raise ValueError(f"level: expected an integer >= 1, got {level}")
     t = float(thickness)
-    th_c, th_s, th_inv = _distinct_angles(geometry)
-    xr, wr, x_inv = _distinct_rows(geometry)
-    ang = _angular_breakpoints(th_c, th_s, level)
+    th_c, th_s, _ = _distinct_angles(geometry)
+    xr, wr, _ = _distinct_rows(geometry)
     ext = float(length_factor) * t
-    ax = _axial_breakpoints(xr, wr, level, ext)
+    _angular_breakpoints(th_c, th_s, level)              # overlapping cells refused first
+    _axial_breakpoints(xr, wr, level, ext)
+    patch_plates(geometry, patch_gap)                    # then a gap that leaves no plate
+    gap = float(patch_gap)
+    ang = _angular_breakpoints(th_c, th_s, level, gap / R)
+    ax = _axial_breakpoints(xr, wr, level, ext, gap=gap)
     h_surf = min(float(np.min(wr)), R * float(np.min(th_s))) / level
     n_r = max(2, level) * max(1, math.ceil(t / (_RADIAL_SIZE * level * h_surf) - 1e-9))
-    rad = _radial_nodes(R, t, n_r, _RADIAL_GROWTH)
+    return ax, ang, _radial_nodes(R, t, n_r, _RADIAL_GROWTH)
+
+
+def mesh_size(geometry, thickness, level=DEFAULT_LEVEL, length_factor=DEFAULT_LENGTH_FACTOR,
+              patch_gap=DEFAULT_PATCH_GAP) -> tuple:
+    """(hexahedra, dofs) of the mesh :func:`_build_mesh` makes, without building it.
+
+    Triquadratic hexahedra on the tensor grid of the breakpoints; dofs: 3 per node once the
+    angular seam is tied. ``patch_gap`` None: :data:`DEFAULT_PATCH_GAP`.
+    """
+    gap = DEFAULT_PATCH_GAP if patch_gap is None else patch_gap
+    ax, ang, rad = _mesh_lines(geometry, thickness, level, length_factor, gap)
+    a, b, c = len(ax.nodes) - 1, len(ang.nodes) - 1, len(rad) - 1
+    return a * b * c, 3 * (2 * a + 1) * (2 * b) * (2 * c + 1)
+
+
+def _build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PATCH_GAP):
+    sk = _skfem()
+    patch_gap = DEFAULT_PATCH_GAP if patch_gap is None else patch_gap
+    R = single_radius(geometry)
+    ax, ang, rad = _mesh_lines(geometry, thickness, level, length_factor, patch_gap)
+    _, _, th_inv = _distinct_angles(geometry)
+    _, _, x_inv = _distinct_rows(geometry)
+    t, gap = float(thickness), float(patch_gap)
     m1 = sk["MeshHex"].init_tensor(ax.nodes, ang.nodes, rad)
     m2c = sk["MeshHex2"].from_mesh(m1)
     comp = m2c.doflocs
@@ -346,7 +502,8 @@ def _build_mesh(geometry, thickness, level, length_factor):
         patch_facets.append(np.nonzero(sel)[0])
     cuff = np.unique(np.concatenate(patch_facets))
     return _TissueMesh(mesh=mesh, comp=comp, radius=R, thickness=t, patch_facets=patch_facets,
-                       cuff_facets=cuff, x_range=(float(ax.nodes[0]), float(ax.nodes[-1])))
+                       cuff_facets=cuff, x_range=(float(ax.nodes[0]), float(ax.nodes[-1])),
+                       patch_gap=gap)
 
 
 # ------------------------------------------------------------ periodic seam

@@ -1,7 +1,7 @@
 """Reference rigid-cuff model: the checks of the condensed surface operators.
 
 * :func:`direct_rigid_cuff_response` -- the FE of a rigid cuff imposed directly on the
-  whole tiled skin area (no condensation onto patches), from the same mesh and
+  patches' plates (no condensation onto patches), from the same mesh and
   assembly (:func:`phri_spring.physics.fe_assembly.assemble_tissue_fe`) as
   :func:`phri_spring.physics.fe_tissue.condensed_surface_operators`.
 * :func:`rigid_cuff_patch_forces` -- the patch normal forces of a rigid cuff bonded over
@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from .fe_assembly import assemble_tissue_fe
-from .fe_mesh import DEFAULT_LENGTH_FACTOR
+from .fe_mesh import DEFAULT_LENGTH_FACTOR, DEFAULT_PATCH_GAP
 from .geometry import rigid_body_map
 
 __all__ = ["rigid_cuff_map", "rigid_cuff_patch_forces", "direct_rigid_cuff_response"]
@@ -79,11 +79,13 @@ def rigid_cuff_patch_forces(K, geometry, wrench, N=None) -> np.ndarray:
 
 
 def direct_rigid_cuff_response(geometry, thickness, poisson_ratio, *, level,
-                               length_factor=DEFAULT_LENGTH_FACTOR, ends="fixed"):
-    """Reference FE: a rigid cuff imposed directly on the whole tiled area (E = 1 Pa).
+                               length_factor=DEFAULT_LENGTH_FACTOR, ends="fixed",
+                               patch_gap=DEFAULT_PATCH_GAP):
+    """Reference FE: a rigid cuff imposed directly on all patches' plates (E = 1 Pa).
 
     The six rigid motions of the cuff (about the cuff origin) are imposed on every skin
-    node under the cuff; the consistent nodal reactions give the cuff stiffness
+    node under a plate (``patch_gap`` = 0: the whole tiled area; the strips of free skin
+    between plates stay free); the consistent nodal reactions give the cuff stiffness
     (6 x 6, E = 1) and, through the recovered traction, each patch's normal force (the
     integral over the patch of n(x) . lambda with the local normal).
 
@@ -95,6 +97,9 @@ def direct_rigid_cuff_response(geometry, thickness, poisson_ratio, *, level,
     length_factor, ends : optional
         Modelled tissue beyond the cuff [thicknesses] and its end faces ('fixed' or
         'free'), as :func:`~phri_spring.physics.fe_tissue.condensed_surface_operators`.
+    patch_gap : float, optional
+        Free skin between neighbouring patches' plates [m], as
+        :func:`~phri_spring.physics.fe_tissue.condensed_surface_operators`.
 
     Returns
     -------
@@ -108,7 +113,7 @@ def direct_rigid_cuff_response(geometry, thickness, poisson_ratio, *, level,
     """
     t0 = time.perf_counter()
     fe = assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends,
-                            patch_modes=False)
+                            patch_modes=False, patch_gap=patch_gap)
     s, g, n_red = fe.skin, fe.dof_map, fe.n_nodes
     # node coordinates and vector component of the reduced dofs
     doflocs = fe.mesh.mesh.doflocs
@@ -124,5 +129,6 @@ def direct_rigid_cuff_response(geometry, thickness, poisson_ratio, *, level,
     lam = fe.skin_mass_lu().solve(Rs)
     Fn = fe.C[s].T @ lam
     info = dict(level=int(level), n_dofs=int(3 * n_red), seconds=time.perf_counter() - t0,
-                length=float(fe.mesh.x_range[1] - fe.mesh.x_range[0]))
+                length=float(fe.mesh.x_range[1] - fe.mesh.x_range[0]),
+                patch_gap=float(fe.mesh.patch_gap))
     return 0.5 * (Kc + Kc.T), Fn, info

@@ -41,9 +41,9 @@ import numpy as np
 
 # re-exported: tests, benchmarks and phri_spring.workflows reach these names here
 from .fe_assembly import _assemble, assemble_tissue_fe  # noqa: F401
-from .fe_mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, FE_EXTRA_HINT,  # noqa: F401
-                      _build_mesh, _periodic_map, _reduce_matrix, _skfem, check_material,
-                      single_radius)
+from .fe_mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, DEFAULT_PATCH_GAP,  # noqa: F401
+                      FE_EXTRA_HINT, _build_mesh, _periodic_map, _reduce_matrix, _skfem,
+                      check_material, patch_gap_problem, patch_plates, single_radius)
 from .fe_punch import (PUNCH_RADIUS, flat_punch_stiffness, modulus_from_indenter,  # noqa: F401
                        sneddon_punch_stiffness)
 from .fe_reference import (direct_rigid_cuff_response, rigid_cuff_map,  # noqa: F401
@@ -53,10 +53,13 @@ __all__ = [
     "FE_EXTRA_HINT",
     "DEFAULT_LEVEL",
     "DEFAULT_LENGTH_FACTOR",
+    "DEFAULT_PATCH_GAP",
     "PUNCH_RADIUS",
     "SurfaceOperators",
     "check_material",
     "single_radius",
+    "patch_plates",
+    "patch_gap_problem",
     "condensed_surface_stiffness",
     "condensed_surface_operators",
     "translational_block",
@@ -107,10 +110,12 @@ def _geometry_key(geometry):
     return (tuple(geometry.labels),) + tuple(a.tobytes() for a in arrays)
 
 
-def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_factor, ends):
+def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_factor, ends,
+                          patch_gap=DEFAULT_PATCH_GAP):
     """(K, N, info) of :func:`condensed_surface_operators` for E = 1 Pa, built."""
     t0 = time.perf_counter()
-    fe = assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends)
+    fe = assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends,
+                            patch_gap=patch_gap)
     s = fe.skin
     mlu = fe.skin_mass_lu()
     Bs, Cs = fe.B[s], fe.C[s]
@@ -125,7 +130,8 @@ def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_fact
     tm = fe.mesh
     info = dict(level=int(level), n_dofs=int(3 * fe.n_nodes), n_elements=int(tm.mesh.nelements),
                 n_surface_dofs=int(len(s)), length=float(tm.x_range[1] - tm.x_range[0]),
-                length_factor=float(length_factor), ends=ends, asymmetry=asym,
+                length_factor=float(length_factor), ends=ends, patch_gap=float(patch_gap),
+                asymmetry=asym,
                 seconds=time.perf_counter() - t0)
     return K, N, info
 
@@ -133,7 +139,8 @@ def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_fact
 def condensed_surface_operators(geometry, thickness, young_modulus, poisson_ratio, *,
                                 level: int = DEFAULT_LEVEL,
                                 length_factor: float = DEFAULT_LENGTH_FACTOR,
-                                ends: str = "fixed") -> SurfaceOperators:
+                                ends: str = "fixed",
+                                patch_gap: float = DEFAULT_PATCH_GAP) -> SurfaceOperators:
     """K and the local-normal output N of the tissue under the cuff patches.
 
     Same parameters as :func:`condensed_surface_stiffness`, plus
@@ -144,6 +151,12 @@ def condensed_surface_operators(geometry, thickness, young_modulus, poisson_rati
         Tissue modelled beyond each axial edge of the cuff, in thicknesses [-].
     ends : {'fixed', 'free'}
         The two end faces of the modelled tissue tube: clamped or traction-free.
+    patch_gap : float
+        Free skin left between neighbouring patches [m] (``tissue.continuum.patch_gap``):
+        each patch's rigid plate is its cell less gap/2 at every edge it shares with a
+        neighbour (:func:`~phri_spring.physics.fe_mesh.patch_plates`); 0: tiled plates,
+        whose independent motions the mesh does not converge for (docs/coupled-fe.md);
+        None: :data:`DEFAULT_PATCH_GAP`.
 
     Returns
     -------
@@ -159,13 +172,16 @@ def condensed_surface_operators(geometry, thickness, young_modulus, poisson_rati
         raise ValueError(f"length_factor: expected a finite value > 0, got {length_factor!r}")
     if int(level) < 1:
         raise ValueError(f"level: expected an integer >= 1, got {level!r}")
+    patch_gap = DEFAULT_PATCH_GAP if patch_gap is None else float(patch_gap)
+    patch_plates(geometry, patch_gap)            # refuses a gap that leaves no plate
     key = (_geometry_key(geometry), float(thickness), float(poisson_ratio), int(level), lf,
-           str(ends))
+           str(ends), float(patch_gap))
     if key in _UNIT_CACHE:
         _UNIT_CACHE.move_to_end(key)
     else:
         _UNIT_CACHE[key] = _build_unit_operators(geometry, float(thickness),
-                                                 float(poisson_ratio), int(level), lf, ends)
+                                                 float(poisson_ratio), int(level), lf, ends,
+                                                 float(patch_gap))
         while len(_UNIT_CACHE) > _UNIT_CACHE_SIZE:
             _UNIT_CACHE.popitem(last=False)
     K1, N1, info = _UNIT_CACHE[key]
@@ -190,7 +206,7 @@ def condensed_surface_stiffness(geometry, thickness, young_modulus, poisson_rati
     level : int, optional
         Mesh level: level x level triquadratic elements on each patch.
     **kwargs
-        ``length_factor``, ``ends``: see :func:`condensed_surface_operators`.
+        ``length_factor``, ``ends``, ``patch_gap``: see :func:`condensed_surface_operators`.
 
     Returns
     -------
@@ -204,7 +220,8 @@ def condensed_surface_stiffness(geometry, thickness, young_modulus, poisson_rati
     Raises
     ------
     ValueError
-        Rows of different radii, overlapping patches, t, E or nu out of range.
+        Rows of different radii, overlapping patches, t, E or nu out of range, a
+        ``patch_gap`` that leaves a patch no plate (a ``ModelInputError``).
     UsageError
         scikit-fem (extra ``fe``) not installed.
     """

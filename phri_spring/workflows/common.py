@@ -218,7 +218,7 @@ def _coupled_model(cfg: Config, cache_dir=None):
         E = continuum_modulus(cfg, geom)
         _fe_module(cfg)
         K, info = load_or_build(geom, t, float(np.mean(E)), cfg.poisson_ratio,
-                                cache_dir=cache_dir)
+                                cache_dir=cache_dir, patch_gap=cfg.continuum_patch_gap)
         N = info.get("N")
     if cfg.continuum_spread == "per_patch":
         if E is None:
