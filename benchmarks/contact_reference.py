@@ -1,0 +1,286 @@
+"""The coupled model's patch normal forces against an FE that models the contact itself.
+
+Run from the repository root (prints markdown; ``benchmarks/CONTACT_REFERENCE.md`` holds
+a run and what it means)::
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py                # levels 2,3
+    OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py --levels 2 --forces 11.1
+
+The reference (:mod:`phri_spring.physics.fe_contact`) is the coupled model's own tissue FE
+with every skin node under a plate a unilateral contact of its own, frictionless or with
+Coulomb friction along a loading path, the cuff, its springs and the strap preload (delta,
+W_pre) taken from the coupled model. Loads: the paper's horizontal (load-cell z) and
+vertical (load-cell y) pulls, both signs, turned into the cuff wrench by
+``workflows.common.cuff_wrench``. Variants:
+
+* ``bonded`` -- the coupled model without friction (touching patches tied, lifted ones
+  still tied tangentially) against the FE with mu = inf (touching nodes never slide);
+* ``mu=0.5`` -- both with Coulomb friction (config ``interface.friction_coefficient``),
+  along the same path: zero wrench, then ``--steps`` equal increments to the load;
+* ``frictionless`` -- both with mu = 0 (nothing resists torsion about the arm: the
+  horizontal loads have no equilibrium).
+
+The coupled model is built at each mesh level from the same FE (the shipped one is level
+3; at that level the script checks it against ``model_from_config``).
+"""
+
+from __future__ import annotations
+
+import os
+
+for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_v, "1")
+
+import argparse  # noqa: E402
+import copy  # noqa: E402
+import platform  # noqa: E402
+import resource  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from phri_spring.errors import ConvergenceError, PhriError  # noqa: E402
+from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
+from phri_spring.physics import fe_contact as fc  # noqa: E402
+from phri_spring.physics.coupled import build_coupled_model, scale_patches  # noqa: E402
+from phri_spring.physics.fe_mesh import DEFAULT_LEVEL  # noqa: E402
+from phri_spring.physics.solver import solve  # noqa: E402
+from phri_spring.workflows.common import (continuum_modulus, cuff_wrench,  # noqa: E402
+                                          model_from_config)
+
+VARIANTS = ("bonded", "mu", "frictionless")
+
+
+def config(path, mu):
+    raw = load_yaml(path)
+    if mu is not None:
+        raw = copy.deepcopy(raw)
+        raw.setdefault("interface", {})["friction_coefficient"] = float(mu)
+    return config_from_dict(raw, path=path, base_dir=Path(path).parent)
+
+
+def coupled_at_level(cfg, level, cache_dir):
+    """The coupled model of a config with its surface stiffness built at mesh ``level``."""
+    from phri_spring.io.surface_stiffness import load_or_build
+
+    geom = cfg.geometry()
+    E = continuum_modulus(cfg, geom)
+    kw = {"level": level, "cache_dir": cache_dir}
+    if getattr(cfg, "continuum_patch_gap", None) is not None:
+        kw["patch_gap"] = cfg.continuum_patch_gap
+    K, info = load_or_build(geom, cfg.continuum_thickness, float(np.mean(E)),
+                            cfg.poisson_ratio, **kw)
+    N = info["N"]
+    if cfg.continuum_spread == "per_patch":
+        K, N = scale_patches(K, N, E / np.mean(E))
+    extra = {}
+    if cfg.friction_coefficient is not None:
+        extra["friction_coefficient"] = cfg.friction_coefficient
+    return build_coupled_model(geom, K, cfg.cuff_stiffness, poisson_ratio=cfg.poisson_ratio,
+                               shear_ratio=cfg.shear_ratio, strap_tension=cfg.strap_tension,
+                               strap_model=cfg.strap_model,
+                               handle_angles_deg=cfg.handle_angles_deg,
+                               handle_axial_position=cfg.strap_axial_position,
+                               pain_threshold_kpa=cfg.pain_threshold_kpa, normal_output=N,
+                               **extra)
+
+
+def cases(cfg, forces):
+    """(label, cuff wrench) of the paper's loads: load-cell z horizontal, y vertical."""
+    out = []
+    for axis, name in ((2, "horizontal"), (1, "vertical")):
+        for sign in (1, -1):
+            for F in forces:
+                w = np.zeros(6)
+                w[axis] = sign * F
+                out.append((f"{name} {sign * F:+g} N", cuff_wrench(cfg, w[None])[0]))
+    return out
+
+
+def coupled_forces(model, W, steps):
+    """Reported patch normal forces [N] (NaN: no converged answer) and patches pressing."""
+    try:
+        if getattr(model, "friction_coefficient", None) is None:
+            sol = solve(model, W[None])
+        else:   # a loading path: zero wrench, then equal increments
+            sol = solve(model, np.outer(np.arange(steps + 1) / steps, W))
+    except (PhriError, np.linalg.LinAlgError, ValueError) as exc:
+        return np.full(model.n, np.nan), -1, str(exc)
+    f = np.asarray(sol.forces)[-1]
+    ok = bool(np.asarray(sol.converged).ravel()[-1]) and np.all(np.isfinite(f))
+    return (f if ok else np.full(model.n, np.nan)), int(np.asarray(sol.contact)[-1].sum()), \
+        None if ok else "not converged"
+
+
+def fe_forces(fe, model, W, mu, steps, preload_steps):
+    t0 = time.perf_counter()
+    try:
+        sol = fc.solve_contact(fe, model, W, friction_coefficient=mu, steps=steps,
+                               preload_steps=preload_steps)
+    except ConvergenceError as exc:
+        return None, time.perf_counter() - t0, str(exc)
+    return sol, time.perf_counter() - t0, None
+
+
+def load_fe(cfg, level, fe_cache):
+    """The contact FE at ``level`` (pickled in ``fe_cache`` when given)."""
+    import pickle
+
+    path = None
+    if fe_cache:
+        Path(fe_cache).mkdir(parents=True, exist_ok=True)
+        path = Path(fe_cache) / f"contact-fe-{Path(cfg.path).stem}-L{level}.pkl"
+        if path.exists():
+            with open(path, "rb") as fh:
+                return pickle.load(fh)
+    fe = fc.build_contact_fe(cfg.geometry(), cfg.continuum_thickness,
+                             float(np.mean(continuum_modulus(cfg))), cfg.poisson_ratio,
+                             level=level, patch_gap=getattr(cfg, "continuum_patch_gap", None))
+    if path is not None:
+        with open(path, "wb") as fh:
+            pickle.dump(fe, fh)
+    return fe
+
+
+def pct(x):
+    return "n/a" if not np.isfinite(x) else f"{x:.2f}"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--config", default="configs/human_upper_arm.yaml")
+    ap.add_argument("--levels", default="2,3", help="mesh levels, comma separated")
+    ap.add_argument("--forces", default="11.1,33.4,55.6", help="load-cell forces [N]")
+    ap.add_argument("--mu", type=float, default=0.5, help="Coulomb coefficient [-]")
+    ap.add_argument("--steps", type=int, default=8, help="load increments (friction)")
+    ap.add_argument("--preload-steps", type=int, default=4, help="strap preload increments")
+    ap.add_argument("--cache-dir", default=None, help="surface stiffness cache (default: "
+                    "phri's own)")
+    ap.add_argument("--fe-cache", default=None, help="keep the contact FE (pickles) here")
+    args = ap.parse_args(argv)
+    t_start = time.perf_counter()
+    levels = [int(v) for v in args.levels.split(",")]
+    forces = [float(v) for v in args.forces.split(",")]
+    mus = {"bonded": None, "mu": args.mu, "frictionless": 0.0}
+    fe_mu = {"bonded": np.inf, "mu": args.mu, "frictionless": 0.0}
+    cfgs = {k: config(args.config, v) for k, v in mus.items()}
+    load = cases(cfgs["bonded"], forces)
+    print(f"# Contact reference: `{args.config}`, mu = {args.mu:g}\n")
+    cmd = " ".join(["OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py",
+                    *(argv if argv is not None else sys.argv[1:])])
+    print(f"Command: `{cmd}`\n")
+    print(f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
+          f"{platform.python_version()}, numpy {np.__version__}\n")
+    results = {}
+    for level in levels:
+        models = {}
+        for k in VARIANTS:
+            try:
+                models[k] = coupled_at_level(cfgs[k], level, args.cache_dir)
+            except (PhriError, ValueError, TypeError) as exc:
+                models[k] = None
+                print(f"- level {level}, {k}: coupled model not available ({exc})")
+        if level == DEFAULT_LEVEL:
+            shipped = model_from_config(cfgs["bonded"], "coupled", cache_dir=args.cache_dir)
+            d = max(float(np.max(np.abs(solve(shipped, W[None]).forces
+                                        - solve(models["bonded"], W[None]).forces)))
+                    for _, W in load)
+            print(f"- level {level}: this script's coupled model against model_from_config: "
+                  f"largest difference {d:.2e} N\n")
+        t0 = time.perf_counter()
+        fe = load_fe(cfgs["bonded"], level, args.fe_cache)
+        print(f"- level {level}: contact FE {fe.info['n_dofs']} dofs, "
+              f"{fe.info['n_nodes']} contact nodes, plates {fe.info['patch_gap'] * 1e3:g} mm "
+              f"apart, built in {time.perf_counter() - t0:.0f} s "
+              f"(condensation {fe.info['seconds']:.0f} s)\n", flush=True)
+        for k in VARIANTS:
+            for label, W in load:
+                fc_, nc_, why_c = (coupled_forces(models[k], W, args.steps) if models[k]
+                                   is not None else (np.full(fe.geometry.n, np.nan), -1, "n/a"))
+                sol, secs, why = fe_forces(fe, models["bonded"], W, fe_mu[k], args.steps,
+                                           args.preload_steps)
+                results[level, k, label] = dict(coupled=fc_, n_coupled=nc_, why_c=why_c,
+                                                sol=sol, secs=secs, why=why)
+        del fe
+    print(f"\n## Patch normal forces: contact FE against the coupled model\n")
+    print("RMSE and largest difference over the 21 patches in % of the FE's peak patch "
+          "force; patches: those with a node touching (FE) / in contact (coupled); "
+          "nodes: FE nodes touching / sliding.\n")
+    for level in levels:
+        print(f"\n### Level {level}\n")
+        print("| variant | case | FE peak [N] | patches FE / coupled | nodes touching / "
+              "sliding | RMSE % | max % | FE s |")
+        print("|---|---|---:|---:|---:|---:|---:|---:|")
+        for k in VARIANTS:
+            name = {"mu": f"mu={args.mu:g}"}.get(k, k)
+            for label, _ in load:
+                r = results[level, k, label]
+                sol = r["sol"]
+                if sol is None:
+                    c = "no answer" if r["why_c"] else "converged"
+                    print(f"| {name} | {label} | FE: no equilibrium | -- / {c} | -- | -- | "
+                          f"-- | {r['secs']:.1f} |")
+                    continue
+                f = sol.normal_forces
+                peak = f.max()
+                d = r["coupled"] - f
+                pe = np.array([np.any(sol.contact & (sol.plate == e))
+                               for e in range(len(f))]).sum()
+                print(f"| {name} | {label} | {peak:.2f} | {pe} / "
+                      f"{'no answer' if r['why_c'] else r['n_coupled']} | "
+                      f"{sol.contact.sum()} / {sol.slip.sum()} | "
+                      f"{pct(100 * np.sqrt(np.mean(d ** 2)) / peak)} | "
+                      f"{pct(100 * np.max(np.abs(d)) / peak)} | {r['secs']:.1f} |")
+    if len(levels) > 1:
+        a, b = levels[-2], levels[-1]
+        print(f"\n## Mesh convergence of the reference: level {a} -> {b}\n")
+        print("Change of the FE's patch normal forces in % of its peak at level "
+              f"{b} (largest patch, RMSE); the coupled model's own change alongside.\n")
+        print("| variant | case | FE max % | FE RMSE % | coupled max % |")
+        print("|---|---|---:|---:|---:|")
+        for k in VARIANTS:
+            name = {"mu": f"mu={args.mu:g}"}.get(k, k)
+            for label, _ in load:
+                ra, rb = results[a, k, label], results[b, k, label]
+                if ra["sol"] is None or rb["sol"] is None:
+                    continue
+                fa, fb = ra["sol"].normal_forces, rb["sol"].normal_forces
+                peak = fb.max()
+                dc = np.max(np.abs(rb["coupled"] - ra["coupled"])) / peak
+                print(f"| {name} | {label} | {100 * np.max(np.abs(fb - fa)) / peak:.2f} | "
+                      f"{100 * np.sqrt(np.mean((fb - fa) ** 2)) / peak:.2f} | "
+                      f"{pct(100 * dc)} |")
+    notes = sorted({(k, r["why_c"]) for (lv, k, lab), r in results.items() if r["why_c"]})
+    if notes:
+        print("\nCoupled model without an answer: " + "; ".join(
+            f"{k}: {why}" for k, why in notes) + ".")
+    # the finest level's forces, patch by patch, where the two models differ most
+    top = levels[-1]
+    print(f"\n## Largest differences at level {top}, patch by patch [N]\n")
+    for k in VARIANTS:
+        rows = [(lab, r) for (lv, kk, lab), r in results.items()
+                if lv == top and kk == k and r["sol"] is not None
+                and np.all(np.isfinite(r["coupled"]))]
+        if not rows:
+            continue
+        lab, r = max(rows, key=lambda t: np.sqrt(np.mean((t[1]["coupled"]
+                                                          - t[1]["sol"].normal_forces) ** 2))
+                     / t[1]["sol"].normal_forces.max())
+        labels = r["sol"].normal_forces.shape[0]
+        geo = cfgs["bonded"].geometry()
+        print(f"{ {'mu': f'mu={args.mu:g}'}.get(k, k)}, {lab}:\n")
+        print("| | " + " | ".join(geo.labels[:labels]) + " |")
+        print("|---|" + "---:|" * labels)
+        print("| FE | " + " | ".join(f"{v:.2f}" for v in r["sol"].normal_forces) + " |")
+        print("| coupled | " + " | ".join(f"{v:.2f}" for v in r["coupled"]) + " |\n")
+    mem = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    print(f"\nTotal {time.perf_counter() - t_start:.0f} s, peak memory {mem:.0f} MB.")
+
+
+if __name__ == "__main__":
+    main()
