@@ -91,13 +91,20 @@ def test_outputs_obey_the_laws(tmp_path, arm):
     W_pre = model_from_config(cfg, arm).W_pre
     applied = cuff_wrench(cfg, W_lc)[ok, :3] + W_pre[:3]
     np.testing.assert_allclose(F, applied, rtol=0, atol=1e-9 * np.abs(applied).max())
-    if arm != "coupled":   # patches of the coupled model also carry moments
-        p = geom.points
-        M = (np.cross(p[None], fn[:, :, None] * normals[None]).sum(axis=1)
-             + np.cross(p[None], ta[:, :, None] * np.array([1.0, 0, 0])).sum(axis=1)
-             + np.cross(p[None], tc[:, :, None] * circ[None]).sum(axis=1))
-        mom = cuff_wrench(cfg, W_lc)[ok, 3:] + W_pre[3:]
-        np.testing.assert_allclose(M, mom, rtol=0, atol=1e-9 * np.abs(applied).max())
+    p = geom.points
+    M = (np.cross(p[None], fn[:, :, None] * normals[None]).sum(axis=1)
+         + np.cross(p[None], ta[:, :, None] * np.array([1.0, 0, 0])).sum(axis=1)
+         + np.cross(p[None], tc[:, :, None] * circ[None]).sum(axis=1))
+    if arm == "coupled":   # patches also carry moments about their centres (local axes)
+        mn, ma, mc = (df[[f"{lab}_moment_{part}_Nm" for lab in labels]].to_numpy()[ok]
+                      for part in ("normal", "axial", "circumferential"))
+        assert np.all(np.abs(np.stack([mn, ma, mc]))[:, fn == 0] == 0.0)
+        M = M + (np.einsum("me,ei->mi", mn, normals) + ma.sum(axis=1)[:, None] * [1.0, 0, 0]
+                 + np.einsum("me,ei->mi", mc, circ))
+    else:
+        assert not any("_moment_" in c for c in df.columns)
+    mom = cuff_wrench(cfg, W_lc)[ok, 3:] + W_pre[3:]
+    np.testing.assert_allclose(M, mom, rtol=0, atol=1e-9 * np.abs(applied).max())
 
 
 @pytest.mark.parametrize("value", [-0.2, "high", [0.5]])

@@ -258,23 +258,42 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                             pain_ratio=extras["peak_pressure_to_pain_threshold"], extras=extras)
 
 
-def shear_columns(labels) -> tuple:
-    """Names of the opt-in shear columns (``--shear``): two per element [N]."""
-    return tuple(f"{lab}_shear_{part}_N" for lab in labels
-                 for part in ("axial", "circumferential"))
+def shear_columns(labels, moments: bool = False) -> tuple:
+    """Names of the opt-in shear columns (``--shear``): two per element [N] and, for patches
+    that carry moments (``moments``, the coupled arm), three per patch [N*m] after them."""
+    names = tuple(f"{lab}_shear_{part}_N" for lab in labels
+                  for part in ("axial", "circumferential"))
+    if moments:
+        names += tuple(f"{lab}_moment_{part}_Nm" for lab in labels
+                       for part in ("normal", "axial", "circumferential"))
+    return names
+
+
+def has_patch_moments(model) -> bool:
+    """Whether the model's patches carry moments (the coupled arm's 6-dof patches)."""
+    return getattr(model, "dofs", 3) == 6
 
 
 def _shear_extras(model, sol) -> dict:
-    """Tangential force on the arm of every element [N] (axial, circumferential), NaN where
-    the sample did not converge."""
+    """Tangential force on the arm of every element [N] (axial, circumferential) and, for
+    6-dof patches, each patch's moment on the skin about its centre [N*m] (local axes:
+    normal, axial, circumferential); NaN where the sample did not converge."""
+    moments = has_patch_moments(model)
     if sol.tangential is not None:   # friction: the path's own tangential forces
         s = np.array(np.atleast_3d(sol.tangential), dtype=float)
+        if moments:
+            s = np.concatenate([s, np.array(sol.moments, dtype=float).reshape(len(s), -1, 3)],
+                               axis=2)
+    elif moments:
+        s = np.array(model.patch_forces(sol.u, sol.contact)[..., 1:6], dtype=float)
     else:
         s = model.shear_components(sol.u, sol.contact)
     if not sol.converged.all():
         s[~sol.converged] = np.nan
-    s = s.reshape(len(s), -1)
-    return {name: s[:, j] for j, name in enumerate(shear_columns(model.labels))}
+    s = np.concatenate([s[..., :2].reshape(len(s), -1), s[..., 2:].reshape(len(s), -1)],
+                       axis=1)
+    return {name: s[:, j] for j, name in
+            enumerate(shear_columns(model.labels, moments=moments))}
 
 
 class _Chunk:
@@ -582,7 +601,8 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
             return extras
         return compute
 
-    with run.writer(model.labels, _extra_arrow_types(model.labels if shear else ()),
+    with run.writer(model.labels, _extra_arrow_types(model.labels if shear else (),
+                                                     has_patch_moments(model)),
                     decimals=decimals) as writer:
         for number, (ch, W) in enumerate(chunks):
             chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
@@ -599,11 +619,11 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     return acc.summary(run.output, f_base)
 
 
-def _extra_arrow_types(shear_labels=()) -> dict:
+def _extra_arrow_types(shear_labels=(), moments: bool = False) -> dict:
     import pyarrow as pa
 
     types = {"int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
              "label": pa.dictionary(pa.int32(), pa.string())}
     out = {name: types[kind] for name, kind in EXTRA_COLUMN_TYPES}
-    out.update({name: pa.float64() for name in shear_columns(shear_labels)})
+    out.update({name: pa.float64() for name in shear_columns(shear_labels, moments)})
     return out
