@@ -197,41 +197,38 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
         phi[N:] = T.T @ P - r
         return phi, (touch, slide, yh, ny, Rt)
 
+    # the rows of every touching, stuck patch: -rho_i d rel_i / d(P, u), the same at every
+    # Newton step; each step copies them and changes only the rows of released and
+    # sliding patches (made once per sample: building J from scratch each step cost as
+    # much as its LU)
+    dRel = np.hstack([-C, T])                       # d rel / d(P, u)
+    J0 = np.zeros((N + 6, N + 6))
+    J0[:N] = -rho[:, None] * dRel
+    J0[N:, :N] = T.T
+
     def jacobian(info):
         touch, slide, yh, ny, Rt = info
-        J = np.zeros((N + 6, N + 6))
-        dRel = np.hstack([-C, T])                       # d rel / d(P, u)
-        # normal rows
-        J[nrm] = np.where(touch[:, None], -rho_n[:, None] * dRel[nrm], 0.0)
-        J[nrm[~touch], nrm[~touch]] = 1.0
-        # tangential rows, stuck (or touching inside the disc)
-        for k in range(2):
-            rows = tan[:, k]
-            J[rows] = -rho_t[:, k, None] * dRel[rows]
+        J = J0.copy()
+        off = ~touch
+        if off.any():
+            # released: P_e = 0 on the normal and rotation rows
+            rows = nrm[off] if d != 6 else np.concatenate([nrm[off], rot[off].ravel()])
+            J[rows] = 0.0
+            J[rows, rows] = 1.0
         sl = np.flatnonzero(slide)
         if sl.size:
             # phi_t = P_t - R_t yh: d = dP_t - yh mu d yn [touch] - R_t/|y| (I - yh yh^T) dy
-            dyn = np.zeros((sl.size, N + 6))
-            dyn[np.arange(sl.size), nrm[sl]] = 1.0
-            dyn += rho_n[sl, None] * dRel[nrm[sl]]
+            dyn = dRel[nrm[sl]] * rho_n[sl, None]
+            dyn[np.arange(sl.size), nrm[sl]] += 1.0
             dyn *= (mu * touch[sl])[:, None]
-            dy = np.zeros((sl.size, 2, N + 6))
-            for k in range(2):
-                dy[np.arange(sl.size), k, tan[sl, k]] = 1.0
-                dy[:, k] += rho_t[sl, k, None] * dRel[tan[sl, k]]
+            dy = dRel[tan[sl]] * rho_t[sl, :, None]
+            dy[np.arange(sl.size)[:, None], np.arange(2)[None, :], tan[sl]] += 1.0
             with np.errstate(invalid="ignore", divide="ignore"):
                 g = np.where(ny[sl] > 0, Rt[sl] / ny[sl], 0.0)
             proj = np.eye(2)[None] - yh[sl, :, None] * yh[sl, None, :]
             block = -yh[sl, :, None] * dyn[:, None, :] - g[:, None, None] * (proj @ dy)
-            for k in range(2):
-                block[np.arange(sl.size), k, tan[sl, k]] += 1.0
-                J[tan[sl, k]] = block[:, k]
-        if d == 6:
-            for k in range(3):
-                rows = rot[:, k]
-                J[rows] = np.where(touch[:, None], -rho_r[:, k, None] * dRel[rows], 0.0)
-                J[rows[~touch], rows[~touch]] = 1.0
-        J[N:, :N] = T.T
+            block[np.arange(sl.size)[:, None], np.arange(2)[None, :], tan[sl]] += 1.0
+            J[tan[sl].ravel()] = block.reshape(-1, N + 6)
         return J
 
     x = np.concatenate([state.P, state.u if u0 is None else u0])
