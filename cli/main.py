@@ -58,6 +58,7 @@ _COMMANDS = {
     "compare": ("phri_cli.compare", "compare"),
     "stiffness": ("phri_cli.stiffness", "stiffness"),
     "design": ("phri_cli.design", "design"),
+    "live": ("phri_cli.live", "live"),
 }
 
 _SHORT_HELP = {
@@ -66,6 +67,7 @@ _SHORT_HELP = {
     "compare": "RMSE of the arm models' predictions (rigid, compliant, coupled) against a sensorized cuff.",
     "stiffness": "Interface stiffness of the cuff on the arm at the load cell [N/mm, N*m/deg].",
     "design": "Parameter study of a cuff over a load set -> Pareto designs, best config.",
+    "live": "Live wrench stream (stdin, Net F/T, LSL) -> element forces as it runs.",
 }
 
 
