@@ -27,7 +27,9 @@ from ._common import ArmChoice, info, progress_enabled
                    "ratio and the contacts in touch, stamped with the input sample's time; "
                    "alarms and gaps on NAME-markers. Needs the live extra.")
 @click.option("--dashboard", default=None, metavar="[HOST:]PORT",
-              help="A local web page of the pressure map (not yet available).")
+              help="A local web page of the pressure map, heat map, peak ratio, alarm, "
+                   "wrench and stream health, at http://HOST:PORT/ (HOST 127.0.0.1 unless "
+                   "given; PORT 0: a free port). Updated at up to 25 Hz (server-sent events).")
 @click.option("--baseline", default="none", show_default=True, metavar="SPEC",
               help="none | zero | first:SECONDS (the stream's first seconds, held until they "
                    "have passed) | window:T0:T1, as in phri simulate.")
@@ -71,17 +73,32 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, durat
       phri live CONFIG --source netft:192.168.1.1 --lsl-out cuff --alarm 0.8
       phri live CONFIG --source lsl:ForceTorque --out run.parquet --baseline first:2
     """
+    from phri_spring.workflows.simulate import parse_baseline
+
+    base = parse_baseline(baseline)
+    dash = None
+    if dashboard is not None:
+        from phri_spring.io.live_dashboard import LiveDashboard, parse_address
+
+        dash = LiveDashboard(*parse_address(dashboard))       # bound now: a port in use fails here
+    try:
+        _live(config, source, arm, output, lsl_out, dash, base, alarm, duration, max_samples,
+              columns, counts_per_force, counts_per_torque, stall_timeout, decimals, progress,
+              quiet)
+    finally:
+        if dash is not None:
+            dash.close()
+
+
+def _live(config, source, arm, output, lsl_out, dash, base, alarm, duration, max_samples,
+          columns, counts_per_force, counts_per_torque, stall_timeout, decimals, progress,
+          quiet):
     from phri_spring.errors import UsageError
     from phri_spring.io.config import load_config
     from phri_spring.io.live_sources import import_pylsl, make_source
     from phri_spring.io.logs import parse_column_map, reader_options
     from phri_spring.workflows.live import LiveRun
-    from phri_spring.workflows.simulate import parse_baseline
 
-    if dashboard is not None:
-        raise UsageError("not yet available in this version; use --lsl-out or --out",
-                         key="--dashboard")
-    base = parse_baseline(baseline)
     colmap = parse_column_map(columns)
     if lsl_out is not None:
         if not lsl_out.strip():
@@ -108,6 +125,13 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, durat
     run = LiveRun(cfg, src, arm=arm, baseline=base, output=output, decimals=decimals,
                   lsl_out=lsl_out, alarm=alarm, duration=duration, max_samples=max_samples,
                   notify=notify)
+    if dash is not None:
+        dash.set_layout(run.labels, cfg.row_labels, cfg.angle_count, alarm=alarm,
+                        title=f"phri live: {cfg.path.name if cfg.path else 'config'}, {arm} arm, "
+                              f"source {source}")
+        run.subscribe(dash.observe)
+        dash.start()
+        notify(f"dashboard on {dash.url}")
     try:
         summary = run.run(status=status if status_on else None)
     finally:

@@ -271,7 +271,7 @@ def test_rdt_sequence_gaps_wrap_and_restarts():
 @pytest.mark.parametrize("args, code, text", [
     (["--source", "serial:/dev/ttyUSB0"], 2, "unknown source"),
     (["--source", "netft:127.0.0.1:99999"], 2, "UDP port"),
-    (["--source", "-", "--dashboard", "8080"], 2, "not yet available"),
+    (["--source", "-", "--dashboard", "80800"], 2, "--dashboard"),
     (["--source", "-", "--alarm", "0"], 2, "--alarm"),
     (["--source", "-", "-o", "out.txt2"], 2, "--out"),
 ])
