@@ -105,8 +105,10 @@ SHEAR_BYTES_PER_VALUE = 96
 #: coupled arm, per value: indicator, output map and set keys beside the spring terms
 COUPLED_BYTES_PER_VALUE = 48
 #: writer, per cell (sample x output column) of the chunks in flight: rounding, transposing
-#: and the text (CSV, measured 60-80 B) or the encoded pages (Parquet, measured 20 B)
-CSV_BYTES_PER_CELL = 96
+#: and the text (CSV, measured 60-80 B) or the encoded pages (Parquet, measured 20 B). A
+#: whole 2,100-element CSV run once peaked 1.4 % above the estimate made with 96 B (CI,
+#: tests/faults/test_fault_memory.py): the allocators' slack varies from run to run
+CSV_BYTES_PER_CELL = 112
 PARQUET_BYTES_PER_CELL = 24
 #: writer, per output column whatever the rows (measured 3.3 KB CSV, 5.8 KB Parquet)
 CSV_BYTES_PER_COLUMN = 4 << 10
