@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import math
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -186,3 +187,20 @@ def assert_one_line_error(result, *needles, code=1):
     assert "Traceback" not in err
     for n in needles:
         assert n in err, err
+
+
+def example_log_lines(n=None) -> list:
+    """The data lines of ``examples/wrench_log.csv`` (no comment, no header), the first n."""
+    log = REPO / "examples" / "wrench_log.csv"
+    lines = [ln for ln in log.read_text().splitlines() if ln and not ln.startswith("#")]
+    return lines[1:] if n is None else lines[1:n + 1]
+
+
+def wait_for(cond, timeout=30.0, poll=0.05) -> bool:
+    """Poll ``cond()`` until it is true (True) or ``timeout`` seconds pass (False)."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if cond():
+            return True
+        time.sleep(poll)
+    return False

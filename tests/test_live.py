@@ -24,7 +24,8 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from conftest import HARMONY_CONFIG, REPO, harmony_dict, one_line
+from conftest import HARMONY_CONFIG, REPO, harmony_dict, one_line, wait_for
+from conftest import example_log_lines as log_lines
 from netft_emulator import NetFtEmulator
 from phri_cli.main import phri
 
@@ -48,12 +49,6 @@ def simulate(tmp_path: Path, log: Path, config=HARMONY_CONFIG, *args) -> pd.Data
 
 def read(path: Path) -> pd.DataFrame:
     return pd.read_parquet(path) if path.suffix == ".parquet" else pd.read_csv(path)
-
-
-def log_lines(n=None) -> list:
-    """The example log's data lines (no comment, no header)."""
-    lines = [ln for ln in LOG.read_text().splitlines() if ln and not ln.startswith("#")]
-    return lines[1:] if n is None else lines[1:n + 1]
 
 
 def write_log(path: Path, lines, header="time,Fx,Fy,Fz,Mx,My,Mz") -> Path:
@@ -311,15 +306,6 @@ def _phri(*args, **kw):
                             stderr=subprocess.PIPE, **kw)
 
 
-def _wait_for(cond, timeout=30.0):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if cond():
-            return True
-        time.sleep(0.05)
-    return False
-
-
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_ends_the_run_with_a_complete_output(tmp_path, sig):
     lines = log_lines(1500)
@@ -329,7 +315,7 @@ def test_a_signal_ends_the_run_with_a_complete_output(tmp_path, sig):
         proc.stdin.write(("\n".join(lines) + "\n").encode())
         proc.stdin.flush()
         # the rows stream into a hidden file beside the output while the run goes on
-        grown = _wait_for(lambda: any(p.stat().st_size > 200_000 for p in tmp_path.iterdir()
+        grown = wait_for(lambda: any(p.stat().st_size > 200_000 for p in tmp_path.iterdir()
                                       if p.name.startswith(".live.csv.")))
         assert grown
         proc.send_signal(sig)
@@ -401,7 +387,7 @@ def test_lsl_round_trip_gives_the_model_forces_with_the_input_times(tmp_path):
         assert found, proc.stderr.read1().decode() if proc.poll() is not None else "no outlet"
         inlet = lsl.StreamInlet(found[0])
         inlet.open_stream(timeout=10)
-        assert _wait_for(outlet.have_consumers)
+        assert wait_for(outlet.have_consumers)
         t0 = lsl.local_clock()
         stamps = t0 + np.arange(n) * 1e-3
         for i in range(n):

@@ -28,7 +28,8 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from conftest import HARMONY_CONFIG, REPO, one_line
+from conftest import HARMONY_CONFIG, REPO, one_line, wait_for
+from conftest import example_log_lines as log_lines
 from phri_cli.main import phri
 from phri_spring.io.live_dashboard import LiveDashboard, page_text, parse_address
 
@@ -39,11 +40,6 @@ ROWS = 200
 #: PHRI_SCREENSHOT_DIR=docs/img to refresh the README's picture (a test never writes into
 #: the repository by itself)
 SCREENSHOT_DIR = os.environ.get("PHRI_SCREENSHOT_DIR")
-
-
-def log_lines(n):
-    lines = [ln for ln in LOG.read_text().splitlines() if ln and not ln.startswith("#")]
-    return lines[1:n + 1]
 
 
 @pytest.fixture(scope="module")
@@ -57,15 +53,6 @@ def reference(tmp_path_factory):
     res = CliRunner().invoke(phri, ["simulate", str(HARMONY_CONFIG), str(log), "-o", str(out)])
     assert res.exit_code == 0, res.output
     return pd.read_parquet(out), lines
-
-
-def _wait_for(cond, timeout=30.0):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if cond():
-            return True
-        time.sleep(0.02)
-    return False
 
 
 class _Live:
@@ -238,11 +225,13 @@ def test_a_browser_shows_the_heat_map_of_the_model(reference, tmp_path):
         browsers.append(subprocess.Popen([*common[:-1], f"--user-data-dir={tmp_path / 'p2'}",
                                           f"--screenshot={shot}", live.url],
                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-        assert _wait_for(lambda: live.state()["clients"] == 2, 60), "the pages did not connect"
+        assert wait_for(lambda: live.state()["clients"] == 2, 60, poll=0.02), \
+            "the pages did not connect"
         for i in range(0, ROWS, 10):           # about a second of the log, paced
             live.feed(lines[i:i + 10])
             time.sleep(0.03)
-        assert _wait_for(lambda: (live.state()["snapshot"] or {}).get("sample") == ROWS)
+        assert wait_for(lambda: (live.state()["snapshot"] or {}).get("sample") == ROWS,
+                        poll=0.02)
         code, err = live.finish()              # the end event lets the pages settle
         dom = browsers[0].communicate(timeout=60)[0].decode()
         browsers[1].wait(timeout=60)
