@@ -262,3 +262,79 @@ def test_summary_line_names_the_law(tmp_path, log_small):
     assert res.exit_code == 0 and "compliant arm, exponential tissue law" in stderr_of(res)
     res = run_phri("simulate", HARMONY_CONFIG, log_small, "-o", tmp_path / "g.csv")
     assert res.exit_code == 0 and "tissue law" not in stderr_of(res)
+
+
+# --------------------------------------------------------------------------- the two iterations
+def _harmony_exponential(beta, kc_scale=1.0):
+    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    kc = kc_scale * np.tile([31250, 62500, 125000, 250000, 500000, 1.0e6, 500000], 3)
+    return build_model(g, 3000.0 * np.ones(g.n), kc, strap_tension=15.0, law="exponential",
+                       law_parameters={"stiffening": beta})
+
+
+def _random_wrenches(m, scale, seed):
+    from phri_spring.synthetic.wrench import smooth_random_log
+
+    return scale * smooth_random_log(m, seed=seed)[1]
+
+
+@pytest.mark.parametrize("beta, scale", [(150.0, 3.0), (600.0, 8.0)])
+def test_fast_and_damped_iterations_reach_the_same_equilibrium(monkeypatch, beta, scale):
+    """The mixed (displacement and tissue share) Newton iteration that solves most rows and
+    the damped Newton on the energy (docs/model.md 11.2) are different algorithms with the
+    same stopping rule: their forces agree to 1e-8 of the peak, and both balance the wrench."""
+    from phri_spring.physics import spring_newton
+
+    model = _harmony_exponential(beta)
+    W = _random_wrenches(400, scale, 5)
+    fast = solve(model, W)
+    monkeypatch.setattr(spring_newton, "MIXED_ITERATIONS", 0)    # every row to the damped one
+    damped = solve(model, W)
+    assert fast.converged.all() and damped.converged.all()
+    peak = np.abs(damped.forces).max()
+    np.testing.assert_allclose(fast.forces, damped.forces, rtol=0, atol=1e-8 * peak)
+    for sol in (fast, damped):
+        res = sol.forces @ model.b + sol.u @ model.K_s - (W + model.W_pre)
+        assert np.abs(res).max() <= 1e-8 * peak
+
+
+def test_rows_the_fast_iteration_leaves_are_solved_by_the_damped_one(monkeypatch):
+    """Very steep stiffening under large loads: the undamped iteration does not settle on
+    some rows within its budget; those rows are handed to the damped Newton, and every row
+    converges to the equilibrium found by an independent energy minimisation."""
+    from phri_spring.physics import spring_newton
+
+    handed = []
+    damped = spring_newton._newton_rows
+
+    def spy(model, r, u, max_steps):
+        handed.append(len(r))
+        return damped(model, r, u, max_steps)
+
+    monkeypatch.setattr(spring_newton, "_newton_rows", spy)
+    monkeypatch.setattr(spring_newton, "MIXED_ITERATIONS", 2)
+    beta = 3000.0
+    model = _harmony_exponential(beta, kc_scale=0.2)
+    W = _random_wrenches(60, 12.0, 8)
+    sol = solve(model, W)
+    assert sum(handed) > 0
+    assert sol.converged.all()
+    res = sol.forces @ model.b + sol.u @ model.K_s - (W + model.W_pre)
+    assert np.abs(res).max() <= 1e-8 * np.abs(sol.forces).max()
+    k0, kc = model.law.k0, model.element.k_cuff
+    betas = np.full(model.n, beta)
+    for i in (0, 30, 59):
+        ref = _reference_solution(model, k0, betas, kc, W[i] + model.W_pre)
+        np.testing.assert_allclose(sol.forces[i], ref, rtol=0, atol=1e-4 * max(1.0, ref.max()))
+
+
+def test_single_sample_solver_matches_the_batch_with_a_stiffening_law():
+    from phri_spring.physics.solver import Solver
+
+    model = _harmony_exponential(200.0)
+    W = _random_wrenches(50, 4.0, 9)
+    batch = solve(model, W)
+    one = Solver(model)
+    single = np.array([one.forces(w) for w in W])
+    np.testing.assert_allclose(single, batch.forces, rtol=0,
+                               atol=1e-9 * np.abs(batch.forces).max())

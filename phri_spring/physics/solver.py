@@ -319,13 +319,16 @@ def make_system(model, cache: FactorCache | None = None) -> ContactSystem:
 
 def _nonlinear_finish(model, r, u, its, conv, max_iterations):
     """For a spring model with a nonlinear law: Newton from the linear model's answer u, in
-    place (docs/model.md section 11); returns the compression g (m, n)."""
+    place (docs/model.md section 11); returns the compression g (m, n) and the element
+    forces (m, n) the iteration converged to."""
     from .spring_newton import solve_newton
 
-    u[:], itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations)
+    f = np.empty((len(r), model.n))
+    u[:], itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations,
+                                        forces_out=f)
     its += itn
     conv &= conv_n
-    return model.delta0 + u @ model.bT
+    return model.delta0 + u @ model.bT, f
 
 
 # --------------------------------------------------------------------------- batch solver
@@ -427,12 +430,15 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
                 S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
                 ub, qb, _, itb, cb = iterate(system, rb, S0, max_iterations, q_out=qb)
             if not linear:
-                qb[:] = _nonlinear_finish(model, rb, ub, itb, cb, max_iterations)
+                qb[:], fb = _nonlinear_finish(model, rb, ub, itb, cb, max_iterations)
             u[s:e], its[s:e], conv[s:e] = ub, itb, cb
             # the settled set, read off the indicator before it becomes the forces in place
             np.greater(qb, 0.0, out=contact[s:e])
             carry = contact[e - 1]
-            system.forces(qb, out=qb, u=ub)
+            if linear:
+                system.forces(qb, out=qb, u=ub)
+            else:
+                qb[:] = fb
             # a displacement beyond _HUGE (or not finite) comes from an absurd input and is
             # not an answer: its forces and pressures overflow (one cheap test first)
             if not (ub.max() <= _HUGE and ub.min() >= -_HUGE):
@@ -524,10 +530,11 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     for i in range(m):
         ui, qi, _, it_i, ok = iterate(system, W[i:i + 1] + model.W_pre, full, max_iterations)
         u[i], q[i], its[i], conv[i] = ui[0], qi[0], it_i[0], ok[0]
+    f_nl = None
     if not model.is_linear:
-        q = _nonlinear_finish(model, W + model.W_pre, u, its, conv, max_iterations)
+        q, f_nl = _nonlinear_finish(model, W + model.W_pre, u, its, conv, max_iterations)
     contact = (q > 0) & conv[:, None]
-    forces = system.forces(q, u=u)
+    forces = system.forces(q, u=u) if f_nl is None else f_nl
     forces[~conv] = np.nan
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
 
@@ -612,8 +619,10 @@ class Solver:
                 u, q, _, its, conv = iterate(self._system, r[None], self._S,
                                                 self.max_iterations, keys=self._keys)
                 ok = bool(conv[0]) and bool(np.abs(u).max() <= _HUGE)
+        self._f_nl = None
         if not self._linear:
-            q = _nonlinear_finish(self.model, r[None], u, its, conv, self.max_iterations)
+            q, self._f_nl = _nonlinear_finish(self.model, r[None], u, its, conv,
+                                              self.max_iterations)
             ok = ok and bool(conv[0])
         self.last_iterations, self.last_converged = int(its[0]), ok
         # the next call starts from the set read off this indicator; its key must be that
@@ -653,7 +662,10 @@ class Solver:
         u = self.displacement(wrench)
         if getattr(self.model, "friction_coefficient", None) is not None:
             return self._q.copy()
-        f = self._system.forces(self._q, u=u[None])[0]
+        if getattr(self, "_f_nl", None) is not None:
+            f = self._f_nl[0].copy()
+        else:
+            f = self._system.forces(self._q, u=u[None])[0]
         if not self.last_converged:
             f[:] = np.nan
         return f

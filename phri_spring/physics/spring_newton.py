@@ -51,6 +51,104 @@ def _state(model, u, r):
     return dt, res, Pi, scale
 
 
+#: Newton steps of the fast mixed iteration before a row is handed to the damped one
+MIXED_ITERATIONS = 12
+
+
+def _mixed_rows(model, r, u):
+    """Undamped Newton on displacements and tissue shares together, in place on u (m, 6).
+
+    The series element's split d = d_t + F(d_t) c is not solved exactly at every step
+    (that costs a transcendental inversion per element and trial): d_t is an unknown of
+    its own, and each step linearises both the split and the equilibrium. Eliminating
+    the share's correction element by element leaves the same 6x6 tangent as the damped
+    iteration, with the split's residual h = d - d_t - F(d_t) c folded into the
+    forces, q = F + k_s h (k_s = F' / (1 + c F'), the series tangent). A row is
+    converged when the equilibrium with q is met to RESIDUAL_RTOL and the split's own
+    force error k_s h is below that too; q is then the element force to round-off.
+    There is no line search, so convergence is not guaranteed: rows that have not
+    converged after MIXED_ITERATIONS steps (or overflow) are returned as such and the
+    caller solves them by the damped Newton on the energy.
+
+    Returns
+    -------
+    conv : ndarray of bool, shape (m,)
+    its : ndarray of int, shape (m,)
+    f : ndarray, shape (m, n)
+        Element forces of the converged rows (undefined elsewhere).
+    """
+    from .solver import _spd_solve_batched
+
+    law = model.element.law
+    c = np.broadcast_to(model.element._c_cuff, (model.n,))
+    b, bT, bb, Ks = model.geometry.b, model.bT, model.bb, model.K_s
+    abs_b = np.abs(b)
+    Ks_col = Ks.reshape(36, 1)
+    m = len(r)
+    f_out = np.empty((m, model.n))
+    its = np.zeros(m, dtype=np.int64)
+    conv = np.zeros(m, dtype=bool)
+    g = u @ bT
+    g += model.delta0
+    # the linear split to start; an element out of contact has d_t = 0, so F = 0 and its
+    # split residual h = d makes the step below give an element that comes into contact
+    # the linear split of its new compression
+    dt = np.maximum(g, 0.0) / (1.0 + law.k0 * c)
+    idx = np.arange(m)
+    u_act = u
+    scale = None
+    with np.errstate(over="ignore", invalid="ignore"):
+        for step in range(MIXED_ITERATIONS + 1):
+            F, Ft = law.force_tangent(dt)
+            denom = c * Ft
+            denom += 1.0
+            ks = Ft / denom
+            ks *= g > 0.0
+            h = c * F
+            np.subtract(g, h, out=h)
+            h -= dt
+            corr = ks * h
+            q = F + corr
+            Ku = u_act @ Ks
+            res = q @ b
+            res += Ku
+            res -= r
+            if scale is None:
+                # the force scale of the equations, taken at the start: it moves by a few
+                # per cent at most over the iteration, and sets a tolerance of 1e-10 of it
+                scale = (np.abs(q) @ abs_b + np.abs(Ku) + np.abs(r)).max(axis=1)
+                tol2 = np.square(RESIDUAL_RTOL * np.maximum(scale, 1e-300))
+            # sums of squares bound the largest entries: a slightly stricter test
+            ok = (np.einsum("ij,ij->i", res, res) <= tol2) & (
+                np.einsum("ij,ij->i", corr, corr) <= tol2)
+            if ok.any():
+                done = idx[ok]
+                conv[done] = True
+                f_out[done] = q[ok]
+                keep = ~ok
+                if not keep.any():
+                    break
+                idx, u_act, r, tol2 = idx[keep], u_act[keep], r[keep], tol2[keep]
+                g, dt, ks, h, denom, res = g[keep], dt[keep], ks[keep], h[keep], denom[keep], res[keep]
+            if step == MIXED_ITERATIONS:
+                break
+            its[idx] += 1
+            Hf = bb.T @ ks.T
+            Hf += Ks_col
+            du = _spd_solve_batched(Hf, res)
+            u_act = u_act - du
+            u[idx] = u_act
+            dg = du @ bT
+            g -= dg
+            h -= dg
+            h /= denom
+            dt += h
+            # the share stays within [0, d] (0 for an element out of contact, d < 0)
+            np.minimum(dt, g, out=dt)
+            np.maximum(dt, 0.0, out=dt)
+    return conv, its, f_out
+
+
 def _newton_rows(model, r, u, max_steps):
     """Damped Newton from u (m, 6), in place, for right-hand sides r (m, 6): its, converged."""
     m = len(r)
@@ -91,7 +189,32 @@ def _newton_rows(model, r, u, max_steps):
     return its, conv
 
 
-def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state=None):
+#: rows per pass of the mixed iteration: its (rows x elements) temporaries stay in cache
+_MIXED_ROWS = 2048
+
+
+def _solve_rows(model, r, u, max_iterations, forces_out=None):
+    """The mixed iteration on every row, the damped one from u on the rows it leaves."""
+    u_start = u.copy()
+    m = len(r)
+    conv = np.empty(m, dtype=bool)
+    its = np.empty(m, dtype=np.int64)
+    f = np.empty((m, model.n)) if forces_out is None else forces_out
+    rows = max(1, _MIXED_ROWS * 21 // max(model.n, 1))
+    for s in range(0, m, rows):
+        e = min(m, s + rows)
+        conv[s:e], its[s:e], f[s:e] = _mixed_rows(model, r[s:e], u[s:e])
+    if not conv.all():
+        rest = np.flatnonzero(~conv)
+        ur = u_start[rest]
+        its_r, conv_r = _newton_rows(model, r[rest], ur, max_iterations)
+        u[rest], its[rest], conv[rest] = ur, its[rest] + its_r, conv_r
+        f[rest] = model.element.force(model.delta0 + ur @ model.bT)
+    return its, conv
+
+
+def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state=None,
+                 forces_out=None):
     """Equilibria of a spring model with a nonlinear element law for right-hand sides r.
 
     Parameters
@@ -120,7 +243,7 @@ def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state
     u = np.array(u0, dtype=float, copy=True).reshape(len(r), 6)
     law = model.element.law
     if law is None or not law.has_state:
-        its, conv = _newton_rows(model, r, u, max_iterations)
+        its, conv = _solve_rows(model, r, u, max_iterations, forces_out)
         return u, its, conv, state
     # history: one sample after another, the law's state advanced by each
     its = np.zeros(len(r), dtype=np.int64)
@@ -133,4 +256,6 @@ def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state
         u[i], its[i], conv[i] = ui[0], it_i[0], ok[0]
         state = law.advance(state, model.element.tissue_compression(model.delta0 + u[i] @ model.bT))
     law.state = state
+    if forces_out is not None:
+        forces_out[...] = model.element.force(model.delta0 + u @ model.bT)
     return u, its, conv, state

@@ -165,6 +165,11 @@ class TissueLaw:
         """Stored energy psi_e(d) = int_0^d F_e [J], 0 where d <= 0."""
         raise NotImplementedError
 
+    def force_tangent(self, d: np.ndarray):
+        """(force, tangent) at compressions d >= 0 [N, N/m]; a law may override it to share
+        the work of the two (the spring solver's inner loop asks for both)."""
+        return self.force(d), self.tangent(d)
+
     # ---- history (laws with has_state only)
     def initial_state(self):
         """The state before the first sample (None for a law without history)."""
@@ -260,6 +265,8 @@ class ExponentialLaw(TissueLaw):
                                "F = (k0/beta)(exp(beta d) - 1)", default=0.0, minimum=0.0,
                                csv_column="stiffening_per_m"),)
 
+    _k0_over_beta = None   # k0 / beta per element, made on first use by force_tangent
+
     def linear_here(self) -> bool:
         return bool(np.all(self.params["stiffening"] == 0.0))
 
@@ -279,6 +286,20 @@ class ExponentialLaw(TissueLaw):
         d = np.asarray(d, dtype=float)
         with np.errstate(over="ignore"):
             return np.where(d >= 0.0, self.k0 * np.exp(self._x(d)), 0.0)
+
+    def force_tangent(self, d):
+        # one expm1 for both: F = (k0/beta) expm1(x), F' = k0 (1 + expm1(x)); d >= 0 here
+        beta = self.params["stiffening"]
+        em = np.expm1(beta * d)
+        if self._k0_over_beta is None:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                self._k0_over_beta = np.where(beta > 0, self.k0 / np.where(beta > 0, beta, 1.0), 0.0)
+            self._all_stiffen = bool(np.all(beta > 0))
+        if self._all_stiffen:
+            F = self._k0_over_beta * em
+        else:   # elements with beta = 0 are linear: k0 d
+            F = np.where(beta > 0, self._k0_over_beta * em, self.k0 * d)
+        return F, self.k0 * (1.0 + em)
 
     def energy(self, d):
         # psi = k0 (expm1(x) - x) / beta^2 = k0 dp^2 (expm1(x) - x) / x^2; a series where x is
