@@ -155,10 +155,35 @@ class SpringModel(OnGeometry):
 
     def contact_system(self, cache=None):
         """The active-set kernel's system of the linear model with stiffness k (docs/model.md
-        section 9); a nonlinear law is then solved from its answer (section 11)."""
+        section 9); a nonlinear law is then solved from the answer of its tangent model at
+        the preload (section 11, :meth:`newton_start`)."""
         from .solver import SpringSystem
 
-        return SpringSystem(self, cache)
+        return SpringSystem(self if self.is_linear else self.newton_start()[0], cache)
+
+    def newton_start(self):
+        """For a nonlinear law: (the linear model tangent to it at the preload, the tissue
+        shares d_t (n,) [m] and the tissue tangents (n,) [N/m] there).
+
+        The tangent model's element e carries f0_e + k_T,e (d - delta0_e) with k_T,e the
+        series tangent at the preloaded compression delta0_e: at zero wrench it gives the
+        preload itself, so a log's quiet samples start at their answer and loaded ones
+        within the curvature of the law. Made once per model.
+        """
+        cached = self.__dict__.get("_newton_start")
+        if cached is None:
+            el = self.element
+            dt_pre = el.tissue_compression(self.delta0)
+            kt_pre = el.law.tangent(dt_pre)
+            k_T = el.tangent(self.delta0)
+            k_T = np.where(k_T > 0, k_T, self.k)          # an element unloaded at preload
+            start = SpringModel(geometry=self.geometry, arm=self.arm, k=k_T,
+                                k_shear=self.k_shear, K_s=self.K_s, delta0=self.f0 / k_T,
+                                f0=self.f0, W_pre=self.W_pre, strap_model=self.strap_model,
+                                pain_threshold_kpa=self.pain_threshold_kpa)
+            cached = (start, dt_pre, kt_pre)
+            object.__setattr__(self, "_newton_start", cached)
+        return cached
 
     def shear_forces(self, u) -> np.ndarray:
         """Shear force on the arm s_e = k_s,e (I3 - n_e n_e^T) B_e u [N], shape (..., n, 3).

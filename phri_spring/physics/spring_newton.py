@@ -90,10 +90,14 @@ def _mixed_rows(model, r, u):
     conv = np.zeros(m, dtype=bool)
     g = u @ bT
     g += model.delta0
-    # the linear split to start; an element out of contact has d_t = 0, so F = 0 and its
-    # split residual h = d makes the step below give an element that comes into contact
-    # the linear split of its new compression
-    dt = np.maximum(g, 0.0) / (1.0 + law.k0 * c)
+    # the tissue shares linearised about the preload (docs/model.md 11.1): exact at zero
+    # wrench; an element out of contact has d_t = 0, so F = 0 and its split residual h = d
+    _, dt_pre, kt_pre = model.newton_start()
+    dt = g - model.delta0
+    dt /= 1.0 + kt_pre * c
+    dt += dt_pre
+    np.minimum(dt, g, out=dt)
+    np.maximum(dt, 0.0, out=dt)
     idx = np.arange(m)
     u_act = u
     scale = None
