@@ -139,3 +139,39 @@ def test_a_swallowed_interrupt_still_stops_the_run(inputs, out, monkeypatch, cap
     err = stderr_of(res).strip()
     assert "\n" not in err and "interrupted (SIGTERM)" in err, err
     assert snapshot(existing) == before and not temporaries(out)
+
+
+@pytest.mark.parametrize("kind", ["file", "directory"])
+def test_signal_right_after_the_temporary_is_made_leaves_nothing(tmp_path, monkeypatch, kind):
+    """A signal arriving between the temporary path being made and the writer holding its
+    name left the path behind with mkstemp/mkdtemp (seen in a loaded test run as a
+    fit-stiffness figures folder). The signal is sent once the path exists, before the
+    call that made it returns."""
+    import os
+    import signal
+
+    from phri_cli._common import Interrupted, _on_signal
+    from phri_spring.io import atomic
+    from phri_spring.io.atomic import atomic_directory, atomic_file
+
+    real = atomic._make_temporary
+
+    def make_then_signal(*args, **kwargs):
+        made = real(*args, **kwargs)          # the path exists; the writer has not seen it
+        os.kill(os.getpid(), signal.SIGTERM)
+        return made
+
+    monkeypatch.setattr(atomic, "_make_temporary", make_then_signal)
+    old = signal.signal(signal.SIGTERM, _on_signal)
+    try:
+        with pytest.raises(Interrupted):
+            writer = atomic_directory if kind == "directory" else atomic_file
+            with writer(tmp_path / "out") as tmp:
+                time.sleep(0.05)
+                raise AssertionError(f"the writer went on with {tmp}")
+    finally:
+        signal.signal(signal.SIGTERM, old)
+        for sig in (signal.SIGINT, signal.SIGHUP):
+            signal.signal(sig, signal.default_int_handler if sig == signal.SIGINT
+                          else signal.SIG_DFL)
+    assert list(tmp_path.iterdir()) == []
