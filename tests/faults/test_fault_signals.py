@@ -170,6 +170,9 @@ def test_signal_right_after_the_temporary_is_made_leaves_nothing(tmp_path, monke
                 time.sleep(0.05)
                 raise AssertionError(f"the writer went on with {tmp}")
     finally:
+        from phri_cli import _common
+
+        _common._received.clear()      # in-process commands after this one must not see it
         signal.signal(signal.SIGTERM, old)
         for sig in (signal.SIGINT, signal.SIGHUP):
             signal.signal(sig, signal.default_int_handler if sig == signal.SIGINT
