@@ -29,7 +29,8 @@ from ._common import info, progress_enabled
               help="Also draw the models' 5-95 % bands from N Monte Carlo draws of the tissue "
                    "stiffness and strap tension (bands.csv, bands/*.png; docs/design.md).")
 @click.option("--uncertainty-sd", default=None, metavar="LIST",
-              help="SDs of the draws: tissue=from_csv|FRACTION, tension=N.")
+              help="SDs of the draws: tissue=from_csv|FRACTION (k0), stiffening=from_csv|"
+                   "FRACTION (the exponential law's beta), tension=N.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the draws.")
 @click.option("-q", "--quiet", is_flag=True,
               help="Print nothing on success (the summary is in OUTDIR/summary.csv).")
@@ -87,11 +88,21 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
         n_fig = 1 + sum(len(tc.conditions) for tc in result.trials)   # bars, wrench, heat maps
         info(f"compare: {len(result.trials)} trials analysed; writing {n_fig} figures ...",
              quiet)
-    out = write_compare(result, output, figures=not no_figures, dpi=dpi)
+    section = ""
+    if uncertainty is not None:
+        from phri_spring.workflows.compare_bands import bands_report_section
+
+        section = bands_report_section(result, bands[1], draws=uncertainty, seed=seed,
+                                       figures=not no_figures)
+    out = write_compare(result, output, figures=not no_figures, dpi=dpi, bands_markdown=section)
     if uncertainty is not None:
         write_compare_bands(result, *bands, output, figures=not no_figures, dpi=dpi)
     if not quiet:
         click.echo(summary_markdown(result))
     n_heat = sum(1 for f in out.files if f.parent.name == "heatmaps")
+    from phri_spring.reports.tissue_law_text import arms_law_text, is_nonlinear
+
+    law = (f"; {arms_law_text(result.config, result.arms)}"
+           if is_nonlinear(result.config) and set(result.arms) - {"rigid"} else "")
     info(f"wrote {out.outdir} ({len(result.trials)} trials, {len(result.rmse)} RMSE values, "
-         f"{n_heat} heat maps); see {out.outdir / 'report.md'}", quiet)
+         f"{n_heat} heat maps{law}); see {out.outdir / 'report.md'}", quiet)

@@ -85,9 +85,11 @@ def design(study, output, scheduler, workers, no_figures, dpi, progress, quiet):
     best = (f"best design {result.best} ({result.study.best} = "
             f"{t[result.study.best].iloc[result.best]:.4g}) -> {result.outdir / 'best.yaml'}"
             if result.best >= 0 else "no feasible design (best.yaml not written)")
+    law = (f"; {result.study.arm} arm: {result.tissue_law}"
+           if result.nonlinear_law and result.study.arm != "rigid" else "")
     info(f"wrote {result.outdir} ({len(t):,} designs over {result.loads.n_samples:,} samples, "
          f"{int(t['feasible'].sum()):,} feasible, {int(t['pareto'].sum()):,} on the Pareto "
-         f"front); {best}; see {result.outdir / 'report.md'}", quiet)
+         f"front{law}); {best}; see {result.outdir / 'report.md'}", quiet)
 
 
 def _checked_study(path, scheduler, workers):

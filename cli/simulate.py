@@ -48,8 +48,9 @@ from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
               help="Monte Carlo with N draws: OUT gets the 5/50/95th percentiles of each "
                    "element's force instead (docs/design.md).")
 @click.option("--uncertainty-sd", default=None, metavar="LIST",
-              help="SDs of the draws: tissue=from_csv|FRACTION, tension=N, force=N, "
-                   "moment=N*m (default tissue=from_csv, the others 0).")
+              help="SDs of the draws: tissue=from_csv|FRACTION (k0), stiffening=from_csv|"
+                   "FRACTION (the exponential law's beta), tension=N, force=N, moment=N*m "
+                   "(default tissue=from_csv, stiffening=from_csv, the others 0).")
 @click.option("--seed", type=int, default=0, show_default=True,
               help="Seed of the Monte Carlo draws.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
@@ -144,13 +145,24 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
                 f"({100 * summary.max_pain_ratio:.3g}% of the pain threshold)")
     else:
         peak = "no converged sample, no peak pressure"
-    law = f", {summary.tissue_law} tissue law" if summary.tissue_law not in ("", "linear") else ""
+    law = _law_clause(config, arm)
     mu = summary.friction_coefficient
     contact = f", friction mu = {mu:g}" if mu is not None else ""
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
          f"{arm} arm{law}{contact}, baseline {base}); {peak}; {load_path_text(summary)}; "
          f"solver {summary.mean_iterations:.2f} "
          f"solves/sample on average" + (f"; plot {plot}" if plot else ""), quiet)
+
+
+def _law_clause(config, arm) -> str:
+    """The summary's clause on the tissue law: ``, exponential tissue law (beta 150 1/m)``;
+    for the coupled arm, that its continuum is linear when the config gives a nonlinear
+    law; nothing for the linear law and the rigid arm."""
+    from phri_spring.io.config import Config, load_config
+    from phri_spring.reports.tissue_law_text import arm_law_text, is_nonlinear
+
+    cfg = config if isinstance(config, Config) else load_config(config)
+    return f", {arm_law_text(cfg, arm)}" if arm != "rigid" and is_nonlinear(cfg) else ""
 
 
 def load_path_text(summary) -> str:
@@ -181,6 +193,7 @@ def _check_draws(config, log, output, arm, colmap, group, draws, sd):
     inputs = uncertain_inputs(cfg, **parse_sd(sd))
     check_model(cfg, arm)
     cols_read, group_read = reader_options(cfg, colmap, group)
-    check_draws(cfg, arm, draws, distinct=bool(inputs.tissue_sd.any() or inputs.tension_sd_N > 0),
+    distinct = bool(inputs.tissue_sd.any() or inputs.beta_sd.any() or inputs.tension_sd_N > 0)
+    check_draws(cfg, arm, draws, distinct=distinct,
                 output_format=fmt, log=log, columns=cols_read, group=group_read)
     return cfg

@@ -10,7 +10,16 @@ and the command line stay fast)::
     res = ps.simulate(cfg, np.array([[0, 0, 33.4, 0, 0, 0]]))   # (m, 6) load-cell readings
     res.forces                                                   # (m, 21) [N]
 
+The tissue law comes with the config: ``tissue.stiffening`` [1/m] in the YAML file (or
+:func:`config_with` in a script) selects the exponential law F = (k0/beta)(exp(beta d) - 1)
+of the compliant arm, and every function below runs it::
+
+    stiff = ps.config_with(cfg, {"tissue.stiffening": 150.0})    # beta = 150 1/m
+    ps.simulate(stiff, np.array([[0, 0, 33.4, 0, 0, 0]])).forces  # the exponential law's
+    ps.model_from_config(stiff).law                              # ExponentialLaw(n=21)
+
 - :func:`load_config`          YAML config -> :class:`~phri_spring.io.config.Config`
+- :func:`config_with`          config + values at dotted paths (``tissue.stiffening``)
 - :func:`simulate`             wrench array (m, 6) -> forces (m, n) [N] and per-sample extras
 - :func:`simulate_file`        wrench log file -> forces file, streamed in bounded memory
 - :func:`fit_stiffness`        indenter recordings -> tissue stiffness map [N/m]
@@ -37,6 +46,7 @@ __version__ = "0.1.0"
 #: flat name -> (module, attribute), imported on first access (PEP 562)
 _LAZY = {
     "load_config": ("phri_spring.io.config", "load_config"),
+    "config_with": ("phri_spring.workflows.design_plan", "config_with"),
     "simulate": ("phri_spring.workflows.simulate", "simulate"),
     "simulate_file": ("phri_spring.workflows.simulate", "simulate_file"),
     "fit_stiffness": ("phri_spring.workflows.fit_stiffness", "fit_stiffness"),

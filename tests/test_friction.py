@@ -170,6 +170,12 @@ def test_laws_hold_on_random_paths(seed, mu, tension, load):
     _, W = smooth_random_log(300, seed=seed)
     W = W / np.abs(W[:, :3]).max() * load * np.array([0.3, 1, 1, 0.01, 0.02, 0.02])
     sol = solve(model, W)
+    # a sample the interface cannot hold (torsion or pull beyond what mu and the strap give,
+    # docs/model.md 12.3) is NaN and not converged; the laws are checked on the others, and
+    # a path that holds nothing at all must at least say so in every sample
+    if not sol.converged.any():
+        assert np.isnan(sol.forces).all() and not sol.contact.any()
+        return
     _check_laws(model, W, sol, mu)
 
 

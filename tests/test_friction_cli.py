@@ -28,6 +28,9 @@ HUMAN = ROOT / "configs" / "human_upper_arm.yaml"
 def _config(tmp_path, mu, **tissue):
     raw = yaml.safe_load(HUMAN.read_text())
     raw.setdefault("interface", {})["friction_coefficient"] = mu
+    # friction needs a linear tissue law (docs/model.md section 12) and the preset's tissue
+    # stiffens (tissue.stiffening): these checks use its linear law unless told otherwise
+    raw["tissue"].pop("stiffening", None)
     raw["tissue"].update(tissue)
     path = tmp_path / "mu.yaml"
     path.write_text(yaml.safe_dump(raw, sort_keys=False))

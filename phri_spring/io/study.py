@@ -62,6 +62,7 @@ class _Uncertainty(_Strict):
     seed: int = 0
     strap_tension_sd_N: float = Field(default=0.0, ge=0, allow_inf_nan=False)
     tissue_stiffness_sd: Union[float, str] = "from_csv"
+    stiffening_sd: Union[float, str] = "from_csv"
     loadcell_force_sd_N: float = Field(default=0.0, ge=0, allow_inf_nan=False)
     loadcell_moment_sd_Nm: float = Field(default=0.0, ge=0, allow_inf_nan=False)
     sobol: int = Field(default=0, ge=0, le=1_000_000)
@@ -170,6 +171,10 @@ class UncertaintySpec:
     loadcell_force_sd_N: float = 0.0
     loadcell_moment_sd_Nm: float = 0.0
     sobol: int = 0
+    #: the exponential law's stiffening rate: relative SD, or ``from_csv`` (the
+    #: ``stiffening_std_per_m`` column of the CSV ``tissue.stiffening`` names; numbers in
+    #: the config: beta held fixed)
+    stiffening_sd: Union[float, str] = "from_csv"
 
 
 @dataclass
@@ -324,15 +329,17 @@ def study_from_dict(data, *, path=None, base_dir=None) -> Study:
     unc = None
     if root.uncertainty is not None:
         u = root.uncertainty
-        sd = u.tissue_stiffness_sd
-        if isinstance(sd, str) and sd != "from_csv":
-            raise ConfigError(f"expected 'from_csv' or a relative SD such as 0.06, got {sd!r}",
-                              file=path, key="uncertainty.tissue_stiffness_sd")
-        if isinstance(sd, float) and not (math.isfinite(sd) and sd >= 0):
-            raise ConfigError(f"expected a relative SD >= 0, got {sd!r}", file=path,
-                              key="uncertainty.tissue_stiffness_sd")
-        unc = UncertaintySpec(u.draws, u.seed, u.strap_tension_sd_N, sd, u.loadcell_force_sd_N,
-                              u.loadcell_moment_sd_Nm, u.sobol)
+        for name in ("tissue_stiffness_sd", "stiffening_sd"):
+            sd = getattr(u, name)
+            if isinstance(sd, str) and sd != "from_csv":
+                raise ConfigError(f"expected 'from_csv' or a relative SD such as 0.06, got "
+                                  f"{sd!r}", file=path, key=f"uncertainty.{name}")
+            if isinstance(sd, float) and not (math.isfinite(sd) and sd >= 0):
+                raise ConfigError(f"expected a relative SD >= 0, got {sd!r}", file=path,
+                                  key=f"uncertainty.{name}")
+        unc = UncertaintySpec(u.draws, u.seed, u.strap_tension_sd_N, u.tissue_stiffness_sd,
+                              u.loadcell_force_sd_N, u.loadcell_moment_sd_Nm, u.sobol,
+                              u.stiffening_sd)
 
     mt = root.merge_tolerance
     return Study(path=Path(path) if path else None, name=root.name, config=rel(root.config),

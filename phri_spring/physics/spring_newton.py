@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .spd6 import spd_solve_batched
+
 __all__ = ["solve_newton", "NEWTON_ITERATIONS", "RESIDUAL_RTOL"]
 
 #: most Newton steps per sample (on top of the linear solve that starts it)
@@ -77,8 +79,6 @@ def _mixed_rows(model, r, u):
     f : ndarray, shape (m, n)
         Element forces of the converged rows (undefined elsewhere).
     """
-    from .solver import _spd_solve_batched
-
     law = model.element.law
     c = np.broadcast_to(model.element._c_cuff, (model.n,))
     b, bT, bb, Ks = model.geometry.b, model.bT, model.bb, model.K_s
@@ -139,7 +139,7 @@ def _mixed_rows(model, r, u):
             its[idx] += 1
             Hf = bb.T @ ks.T
             Hf += Ks_col
-            du = _spd_solve_batched(Hf, res)
+            du = spd_solve_batched(Hf, res)
             u_act = u_act - du
             u[idx] = u_act
             dg = du @ bT

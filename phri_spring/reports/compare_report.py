@@ -11,7 +11,9 @@ from typing import Sequence
 
 import numpy as np
 
-__all__ = ["compare_report", "summary_markdown", "rmse_markdown"]
+from .tissue_law_text import arms_law_text
+
+__all__ = ["compare_report", "summary_markdown", "rmse_markdown", "bands_markdown"]
 
 
 def _fmt(x, digits=2) -> str:
@@ -81,7 +83,7 @@ def rmse_markdown(rows, arms: Sequence[str]) -> str:
 
 def compare_report(cfg, manifest, *, arms: Sequence[str], n_trials: int, baselines,
                    tissue_stiffness_file, summary, rmse_rows, figures: bool,
-                   fig_index=()) -> str:
+                   fig_index=(), bands_markdown: str = "") -> str:
     """report.md of a comparison.
 
     Parameters
@@ -103,6 +105,8 @@ def compare_report(cfg, manifest, *, arms: Sequence[str], n_trials: int, baselin
     fig_index : sequence of (TrialSpec, str, list of (str, str))
         Per trial: its spec, its wrench figure's path and (condition, heat-map
         path) pairs, paths relative to the output folder.
+    bands_markdown : str
+        The section on ``--uncertainty``'s bands (:func:`bands_markdown`), or ''.
     """
     man = manifest
     tissue = (f"`{tissue_stiffness_file}` (replacing the config's map)"
@@ -115,7 +119,8 @@ def compare_report(cfg, manifest, *, arms: Sequence[str], n_trials: int, baselin
         (f": {man.description.strip()}" if man.description.strip() else ""),
         f"- trials: {n_trials}; elements: {len(cfg.labels)} "
         f"({cfg.labels[0]}..{cfg.labels[-1]}); arm models: {', '.join(arms)}",
-        f"- tissue stiffness: {tissue}; tissue law: {cfg.tissue_law}",
+        f"- tissue stiffness: {tissue}",
+        f"- tissue law: {arms_law_text(cfg, arms)}",
         "- interface: " + ("bonded shear springs (the paper's)" if cfg.friction_coefficient is None
                            else f"Coulomb friction, mu = {cfg.friction_coefficient:g}, each "
                            f"trial's conditions solved in order as one loading path "
@@ -139,6 +144,8 @@ def compare_report(cfg, manifest, *, arms: Sequence[str], n_trials: int, baselin
     if figures and len(summary):
         lines += ["![RMSE per condition and arm model (Fig. 7)](rmse_bars.png)", ""]
     lines += ["## RMSE per trial", "", rmse_markdown(rmse_rows, arms), ""]
+    if bands_markdown:
+        lines += [bands_markdown, ""]
     if figures:
         lines += ["## Figures per trial", "",
                   "Heat maps: zeroed loads measured | rigid | compliant, rows by angular "
@@ -160,4 +167,30 @@ def compare_report(cfg, manifest, *, arms: Sequence[str], n_trials: int, baselin
               f"[{cfg.force_unit}, {cfg.moment_unit}], load_N, n_samples",
               "- `conditions.csv`: per trial and condition: n_samples, mean and zeroed wrench, "
               "load_N, rmse_<arm>_N", ""]
+    return "\n".join(lines)
+
+
+def bands_markdown(table, *, draws: int, seed: int, laws: dict, figures: bool) -> str:
+    """The report section of ``phri compare --uncertainty``: the draws, and per arm model the
+    tissue law the draws ran and what was perturbed.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        ``bands.csv`` (its ``arm`` and ``perturbed`` columns).
+    draws, seed : int
+    laws : dict of str -> str
+        Arm model -> its tissue (:func:`~.tissue_law_text.arm_law_text`).
+    figures : bool
+        Whether ``bands/*.png`` were drawn.
+    """
+    lines = ["## Model bands (Monte Carlo)", "",
+             f"{draws} draws (seed {seed}) of the uncertain inputs, the same draws for every "
+             "arm model, each draw zeroed on its own baseline condition: the 5th, 50th and "
+             "95th percentiles of the zeroed loads are in `bands.csv`"
+             + (" and drawn per trial in `bands/`" if figures else "") + ".", "",
+             "| arm | tissue | perturbed |", "|---|---|---|"]
+    for arm in dict.fromkeys(table["arm"]):
+        perturbed = str(table.loc[table["arm"] == arm, "perturbed"].iloc[0])
+        lines.append(f"| {arm} | {laws.get(arm, '')} | {perturbed} |")
     return "\n".join(lines)

@@ -56,6 +56,8 @@ def design_report(result, figs: list) -> str:
     n = len(t)
     lines = [f"# Design study{': ' + st.name if st.name else ''}", ""]
     lines.append(f"- base config: `{st.config.name}`; arm model: {st.arm}")
+    if getattr(result, "tissue_law", ""):
+        lines.append(f"- tissue law ({st.arm} arm): {result.tissue_law}")
     lines.append(f"- load set: {', '.join(f'`{f.name}`' for f in st.loads)}: "
                  f"{result.loads.n_samples:,} samples, {len(result.loads.weights):,} distinct "
                  + ("(identical rows merged, exact)" if result.loads.tolerance == (0.0, 0.0) else

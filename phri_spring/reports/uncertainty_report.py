@@ -16,7 +16,8 @@ __all__ = ["study_uncertainty_markdown", "monte_carlo_summary_line"]
 
 def study_uncertainty_markdown(objectives_table, *, draws: int, seed: int, arm: str,
                                perturbed: str, objectives: Sequence[str] = (),
-                               sobol_base: Optional[int] = None, sobol=None) -> str:
+                               sobol_base: Optional[int] = None, sobol=None,
+                               tissue_law: str = "") -> str:
     """The report section of a study's Monte Carlo (and Sobol indices) at its best design.
 
     Parameters
@@ -36,6 +37,9 @@ def study_uncertainty_markdown(objectives_table, *, draws: int, seed: int, arm: 
     sobol : pandas.DataFrame, optional
         The indices (``objective``, ``input``, ``S1``, ``ST`` [-], ``note``); None
         when no input the arm uses has an SD.
+    tissue_law : str
+        The arm's tissue the draws ran (``exponential tissue law (beta 150 1/m)``);
+        '' leaves it out.
 
     Returns
     -------
@@ -45,8 +49,9 @@ def study_uncertainty_markdown(objectives_table, *, draws: int, seed: int, arm: 
     obj = objectives_table
     md = ["## Uncertainty of the best design", "",
           f"Monte Carlo, {draws} draws (seed {seed}), {arm} arm "
-          "(uncertainty_objectives.csv, uncertainty_patches.csv). Perturbed for this arm: "
-          f"{perturbed}.", "",
+          "(uncertainty_objectives.csv, uncertainty_patches.csv). "
+          + (f"Tissue: {tissue_law}. " if tissue_law else "")
+          + f"Perturbed for this arm: {perturbed}.", "",
           "| objective | p5 | p50 | p95 |", "|---|---|---|---|"]
     for _, r in obj.iterrows():
         md.append(f"| {r['objective']} | {r['p5']:.4g} | {r['p50']:.4g} | {r['p95']:.4g} |")
@@ -83,7 +88,8 @@ def _sobol_markdown(sob, n_base: int, arm: str, objectives) -> list:
 def monte_carlo_summary_line(output, *, samples: int, elements: int, draws: int, seed: int,
                              not_converged: int, perturbed: str,
                              max_pain_ratio_p95: float = math.nan,
-                             max_pain_ratio_time: float = math.nan) -> str:
+                             max_pain_ratio_time: float = math.nan,
+                             tissue_law: str = "") -> str:
     """The line ``phri simulate --uncertainty`` ends with: sizes, draws, the peak.
 
     Parameters
@@ -99,6 +105,9 @@ def monte_carlo_summary_line(output, *, samples: int, elements: int, draws: int,
         The largest 95th percentile of peak pressure / pain threshold [-] (NaN: none).
     max_pain_ratio_time : float
         Its time [s].
+    tissue_law : str
+        The arm and its tissue law the draws ran (``compliant arm: exponential tissue law,
+        beta 150 1/m``); '' leaves it out.
     """
     peak = (f"; 95th percentile of peak pressure up to {100 * max_pain_ratio_p95:.3g}%"
             f" of the pain threshold (t = {max_pain_ratio_time:g} s)"
@@ -107,4 +116,5 @@ def monte_carlo_summary_line(output, *, samples: int, elements: int, draws: int,
            if not_converged else "")
     return (f"wrote {output} ({samples:,} samples x {elements} elements, "
             f"5/50/95th percentiles over {draws} Monte Carlo draws, seed {seed}"
-            f"{bad}; perturbed: {perturbed or 'none'}){peak}")
+            f"{bad}; {tissue_law + '; ' if tissue_law else ''}perturbed: {perturbed or 'none'})"
+            f"{peak}")

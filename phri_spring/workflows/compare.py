@@ -6,7 +6,9 @@ Method (docs/model.md section 7, paper sections III-C and IV-B):
    element for each condition (all rows of that condition).
 2. For each arm model (``rigid``, ``compliant``) the spring network is solved
    at each condition's mean wrench (converted from load-cell readings to the
-   cuff wrench with the config's load-cell pose, units and convention).
+   cuff wrench with the config's load-cell pose, units and convention). The
+   compliant arm runs the config's tissue law (``tissue.law``, ``tissue.stiffening``);
+   the coupled arm's continuum is linear, and the report says so.
 3. Zeroing, each side on its own baseline: measured loads minus the measured
    loads of the trial's baseline condition; simulated loads minus the
    simulated loads at the baseline condition's mean wrench.
@@ -422,7 +424,8 @@ def _heat_title(tc: TrialComparison, j: int, cfg: Config) -> str:
 
 
 def write_compare(result: CompareResult, outdir, *, figures: bool = True,
-                  dpi: Optional[int] = None, workers: Optional[int] = None) -> CompareOutputs:
+                  dpi: Optional[int] = None, workers: Optional[int] = None,
+                  bands_markdown: str = "") -> CompareOutputs:
     """Write the tables, figures and report of a comparison into ``outdir``.
 
     Files: ``rmse.csv``, ``summary.csv``, ``loads.csv``, ``conditions.csv``,
@@ -435,6 +438,8 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
     replaces it at the end: a failed run leaves nothing behind. The figures are
     drawn on ``workers`` processes (default: the available cores; they are
     independent, and the images do not depend on the number of processes).
+    ``bands_markdown``: the report's section on ``--uncertainty``'s bands
+    (:func:`.compare_bands.bands_report_section`).
 
     Raises
     ------
@@ -509,7 +514,8 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
             cfg, result.manifest, arms=result.arms, n_trials=len(result.trials),
             baselines=sorted({t.spec.baseline for t in result.trials}),
             tissue_stiffness_file=result.tissue_stiffness_file, summary=result.summary,
-            rmse_rows=_rmse_rows(result), figures=figures, fig_index=fig_index)
+            rmse_rows=_rmse_rows(result), figures=figures, fig_index=fig_index,
+            bands_markdown=bands_markdown)
         (tmp / "report.md").write_text(report, encoding="utf-8")
         written.append(outdir / "report.md")
     return CompareOutputs(outdir=outdir, files=written)

@@ -16,20 +16,23 @@ import numpy as np
 
 from ..errors import UsageError
 from ..physics.solver import solve_segments
+from ..reports.compare_report import bands_markdown
+from ..reports.tissue_law_text import arm_law_text
 from .common import model_from_config
 from .uncertain_draws import (PERCENTILES, check_fe_cache, draw_configs, parse_sd,
                               perturbed_text, reaches_model, uncertain_inputs)
 
-__all__ = ["compare_bands", "write_compare_bands"]
+__all__ = ["compare_bands", "write_compare_bands", "bands_report_section"]
 
 
 def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None):
     """Monte Carlo bands of a ``phri compare`` result's simulated (zeroed) loads.
 
-    The config's uncertain inputs (tissue stiffness, strap tension; see
-    :func:`parse_sd`) are drawn ``draws`` times, the same draws for every arm, each
-    arm taking what its model uses (:mod:`.uncertain_draws`: the coupled arm the
-    continuum's modulus, the rigid arm no tissue), and every trial's condition-mean
+    The config's uncertain inputs (tissue stiffness, the exponential law's stiffening
+    rate, strap tension; see :func:`parse_sd`) are drawn ``draws`` times, the same draws
+    for every arm, each arm taking what its model uses (:mod:`.uncertain_draws`: the
+    coupled arm the continuum's modulus, the rigid arm no tissue; every draw runs the
+    config's tissue law), and every trial's condition-mean
     wrenches solved again; each draw's loads are zeroed on its own baseline
     condition, as :func:`phri_spring.workflows.compare.compare` does. Load-cell
     noise is left out: the wrenches are means over a steady window.
@@ -39,7 +42,8 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
     result : CompareResult
     draws, seed
     sd : str, optional
-        ``tissue=from_csv|FRACTION,tension=N`` (force and moment are ignored).
+        ``tissue=from_csv|FRACTION,stiffening=from_csv|FRACTION,tension=N`` (force and
+        moment are ignored).
 
     Returns
     -------
@@ -48,7 +52,9 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
     table : pandas.DataFrame
         experiment, direction, trial, condition, arm, location, measured_N,
         simulated_N, sim_p5_N, sim_p50_N, sim_p95_N, perturbed (what scattered for
-        the row's arm; ``none``: the band is the prediction itself).
+        the row's arm; ``none``: the band is the prediction itself), tissue_law (the
+        arm's tissue: ``exponential tissue law (beta 150 1/m)``, ``linear continuum``,
+        ...).
     """
     import pandas as pd
 
@@ -66,6 +72,7 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
     q = np.array(PERCENTILES)
     for arm in result.arms:
         perturbed = perturbed_text(cfg, inputs, arm, noise=False)
+        law = arm_law_text(cfg, arm)
         F = np.empty((len(cfgs), len(W), cfg.n_elements))
         if reaches_model(cfg, inputs, arm):
             for d, c in enumerate(cfgs):
@@ -88,8 +95,15 @@ def compare_bands(result, *, draws: int, seed: int = 0, sd: Optional[str] = None
                                  "measured_N": tc.measured[i, j],
                                  "simulated_N": tc.simulated[arm][i, j],
                                  "sim_p5_N": P[0, i, j], "sim_p50_N": P[1, i, j],
-                                 "sim_p95_N": P[2, i, j], "perturbed": perturbed})
+                                 "sim_p95_N": P[2, i, j], "perturbed": perturbed,
+                                 "tissue_law": law})
     return bands, pd.DataFrame(rows)
+
+
+def bands_report_section(result, table, *, draws: int, seed: int, figures: bool) -> str:
+    """The compare report's section on the bands: per arm, its tissue law and what scattered."""
+    return bands_markdown(table, draws=int(draws), seed=int(seed), figures=figures,
+                          laws={a: arm_law_text(result.config, a) for a in result.arms})
 
 
 def write_compare_bands(result, bands, table, outdir, *, figures: bool = True,

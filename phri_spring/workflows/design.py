@@ -34,6 +34,7 @@ from ..errors import UsageError
 from ..io.atomic import atomic_file, check_output_path
 from ..io.study import OBJECTIVES, Study, load_study
 from ..reports.design_report import design_report
+from ..reports.tissue_law_text import designs_law_text, is_nonlinear
 from .common import ARM_MODELS
 from .design_objectives import (LoadSet, evaluate_batch, evaluate_design, load_set,
                                 pareto_mask, weighted_percentile)
@@ -69,6 +70,11 @@ class StudyResult:
     files: list = field(default_factory=list)
     uncertainty: Optional[dict] = None
     pain_threshold_kpa: float = 120.0
+    #: the arm's tissue over the designs (``exponential tissue law (beta 150 1/m)``, ``linear
+    #: continuum (tissue.stiffening is used by the compliant arm only)``, ...)
+    tissue_law: str = ""
+    #: whether some design gives a nonlinear tissue law (the summary line then names it)
+    nonlinear_law: bool = False
 
 
 def prepare_study(study_path) -> tuple:
@@ -152,6 +158,8 @@ def run_study(study_path, outdir, *, scheduler: Optional[str] = None,
         map_seconds = time.perf_counter() - t_map
 
     result = _assemble(study, base, values, configs, loads, done, outdir)
+    result.tissue_law = designs_law_text(configs, study.arm)
+    result.nonlinear_law = any(is_nonlinear(c) for c in configs)
     result.resumed_batches = len(batches) - len(todo)
     result.total_batches = len(batches)
     result.compute_seconds = float(sum(float(done[b]["seconds"]) for b, _ in todo))
@@ -214,17 +222,18 @@ def _assemble(study, base, values, configs, loads, done, outdir) -> StudyResult:
 
 # --------------------------------------------------------------------------- outputs
 def _portable_config(cfg_raw: dict, base: Optional[Path], outdir: Path) -> dict:
-    """The config mapping with stiffness-file paths made relative to ``outdir``."""
+    """The config mapping with stiffness-file paths (and a ``tissue.stiffening`` CSV) made
+    relative to ``outdir``."""
     raw = copy.deepcopy(cfg_raw)
     base_dir = base.parent if base is not None else Path(".")
-    for sec in ("tissue", "cuff"):
-        v = raw.get(sec, {}).get("stiffness") if isinstance(raw.get(sec), dict) else None
+    for sec, key in (("tissue", "stiffness"), ("cuff", "stiffness"), ("tissue", "stiffening")):
+        v = raw.get(sec, {}).get(key) if isinstance(raw.get(sec), dict) else None
         if isinstance(v, str):
             src = Path(v) if Path(v).is_absolute() else base_dir / v
             try:
-                raw[sec]["stiffness"] = os.path.relpath(src.resolve(), outdir.resolve())
+                raw[sec][key] = os.path.relpath(src.resolve(), outdir.resolve())
             except ValueError:  # another drive (Windows)
-                raw[sec]["stiffness"] = str(src.resolve())
+                raw[sec][key] = str(src.resolve())
     return raw
 
 

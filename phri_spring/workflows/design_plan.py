@@ -4,7 +4,8 @@
 scrambled Sobol sequence); :func:`design_mapping` puts one design's values into
 the base config mapping (:mod:`phri_spring.workflows.config_paths`); and
 :func:`build_designs` validates every design with the config schema itself,
-before anything is computed or written.
+before anything is computed or written. :func:`config_with` does the same for one
+config in a script (``phri_spring.config_with``).
 """
 
 from __future__ import annotations
@@ -22,9 +23,9 @@ from ..errors import ConfigError
 from ..io.config import Config, config_from_dict
 from ..io.study import Study
 from .common import ARM_MODELS, model_from_config
-from .config_paths import check_parameter, set_parameter
+from .config_paths import check_parameter, set_parameter, walk_path
 
-__all__ = ["design_values", "design_mapping", "build_designs"]
+__all__ = ["design_values", "design_mapping", "build_designs", "config_with"]
 
 
 def design_values(study: Study) -> np.ndarray:
@@ -118,3 +119,48 @@ def build_designs(study: Study, base: Config) -> tuple:
                             file=study.path, key=exc.key) from None
         configs.append(cfg)
     return values, configs
+
+
+def config_with(config, values: dict) -> Config:
+    """A config with values put at dotted config paths, validated as its YAML file would be.
+
+    Parameters
+    ----------
+    config : Config or path
+        The base config (its YAML mapping is copied; paths in it stay relative to its file).
+    values : dict
+        Dotted path (``tissue.stiffening``, ``strap.tension``,
+        ``cuff.stiffness.per_angle[5]``) -> value (a number, list or mapping, any value
+        the config accepts there; a path of a CSV relative to the config's folder).
+
+    Raises
+    ------
+    ConfigError
+        A path that cannot hold a value, or a value the config rejects (one line).
+
+    Examples
+    --------
+    The exponential tissue law (``tissue.stiffening`` [1/m]) on the bundled config:
+
+    >>> cfg = config_with("configs/harmony_upper_arm.yaml", {"tissue.stiffening": 150.0})
+    >>> cfg.tissue_law, float(cfg.tissue_law_parameters["stiffening"][0])
+    ('exponential', 150.0)
+    """
+    from ..io.config import load_config
+    from ..io.study import parse_path
+
+    base = config if isinstance(config, Config) else load_config(config)
+    raw = copy.deepcopy(base.raw)
+    for path, value in values.items():
+        try:
+            node, last = walk_path(raw, parse_path(path), path, base.path, create=True)
+        except ConfigError as exc:      # named by the path given, not as a study's vary key
+            raise ConfigError(exc.message, file=base.path, key=path) from None
+        if isinstance(last, int) and not (isinstance(node, list) and last < len(node)):
+            raise ConfigError(f"index [{last}] is out of range", file=base.path, key=path)
+        if not isinstance(last, int) and not isinstance(node, dict):
+            raise ConfigError(f"the parent of {last!r} is not a mapping", file=base.path,
+                              key=path)
+        node[last] = copy.deepcopy(value)
+    cfg_dir = base.path.parent if base.path is not None else Path(".")
+    return config_from_dict(raw, path=base.path, base_dir=cfg_dir)

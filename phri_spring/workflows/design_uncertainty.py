@@ -1,11 +1,13 @@
 """Uncertainty of a design study's objectives at one design: Monte Carlo and Sobol indices.
 
-:func:`study_uncertainty` draws the study's uncertain inputs (tissue stiffness,
-strap tension, load-cell noise; :mod:`.uncertain_draws`) N times and evaluates
-the objectives over the load set for each draw; with SALib,
+:func:`study_uncertainty` draws the study's uncertain inputs (tissue stiffness, the
+exponential law's stiffening rate, strap tension, load-cell noise;
+:mod:`.uncertain_draws`) N times and evaluates the objectives over the load set for
+each draw (each draw runs the design's tissue law); with SALib,
 :func:`sobol_indices` gives the first-order and total Sobol indices of each
 objective to each scalar input the arm uses (per-location tissue stiffness or
-the continuum's modulus, strap tension): which measurement is worth repeating.
+the continuum's modulus, per-location stiffening rate, strap tension): which
+measurement is worth repeating.
 Load-cell noise is random per sample, not one scalar, so it is in the Monte
 Carlo but not in the indices. The report section is
 :func:`phri_spring.reports.uncertainty_report.study_uncertainty_markdown`.
@@ -19,6 +21,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..io.config import Config
+from ..reports.tissue_law_text import arm_law_text
 from ..reports.uncertainty_report import study_uncertainty_markdown
 from .uncertain_draws import (PERCENTILES, UncertainInputs, check_fe_cache, config_at,
                               draw_configs, perturbed_text, sobol_inputs, uncertain_inputs)
@@ -62,7 +65,8 @@ def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
     inputs = uncertain_inputs(cfg, tissue_sd=spec.tissue_stiffness_sd,
                               tension_sd_N=spec.strap_tension_sd_N,
                               force_sd_N=spec.loadcell_force_sd_N,
-                              moment_sd_Nm=spec.loadcell_moment_sd_Nm)
+                              moment_sd_Nm=spec.loadcell_moment_sd_Nm,
+                              stiffening_sd=getattr(spec, "stiffening_sd", "from_csv"))
     cfgs = draw_configs(cfg, inputs, spec.draws, spec.seed)
     check_fe_cache(cfg, inputs, [arm])
     perturbed = perturbed_text(cfg, inputs, arm)
@@ -98,7 +102,8 @@ def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
             tables["sobol.csv"] = sob
     md = study_uncertainty_markdown(obj, draws=spec.draws, seed=spec.seed, arm=arm,
                                     perturbed=perturbed, objectives=objectives,
-                                    sobol_base=spec.sobol, sobol=sob)
+                                    sobol_base=spec.sobol, sobol=sob,
+                                    tissue_law=arm_law_text(cfg, arm))
     return {"tables": tables, "markdown": md}
 
 
@@ -107,9 +112,9 @@ def sobol_indices(cfg: Config, loads, arm: str, inputs: UncertainInputs, objecti
     """First-order and total Sobol indices of each objective to each scalar input (SALib).
 
     Inputs: those the arm uses with a non-zero SD (:func:`.uncertain_draws.sobol_inputs`:
-    each location's tissue stiffness, or the continuum's Young's modulus, and the
-    strap tension), each Gaussian. Costs n_base * (D + 2) evaluations over the
-    load set (D inputs).
+    each location's tissue stiffness, or the continuum's Young's modulus, each location's
+    stiffening rate, and the strap tension), each Gaussian. Costs n_base * (D + 2)
+    evaluations over the load set (D inputs).
 
     Returns
     -------

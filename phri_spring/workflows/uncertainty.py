@@ -1,8 +1,10 @@
 """``phri simulate --uncertainty``: Monte Carlo over what was measured with scatter.
 
-The uncertain inputs (tissue stiffness, strap tension, load-cell noise), their
-draws and what each arm takes from them (the coupled arm: the continuum's
-Young's modulus; the rigid arm: no tissue) are in :mod:`.uncertain_draws`.
+The uncertain inputs (tissue stiffness, the exponential law's stiffening rate, strap
+tension, load-cell noise), their draws and what each arm takes from them (the coupled
+arm: the continuum's Young's modulus; the rigid arm: no tissue) are in
+:mod:`.uncertain_draws`. Every draw runs the config's tissue law (``tissue.law``,
+``tissue.stiffening``): a draw is the config with the drawn values put in.
 
 :func:`monte_carlo` draws N sets of inputs (fixed seed), solves the whole log
 for each, and returns the 5th, 50th and 95th percentiles over the draws of
@@ -30,6 +32,7 @@ import numpy as np
 from ..errors import UsageError
 from ..io.config import Config
 from ..physics.solver import FactorCache
+from ..reports.tissue_law_text import arm_law_text
 from ..reports.uncertainty_report import monte_carlo_summary_line
 from .common import cuff_wrench, model_from_config
 from .compare_bands import compare_bands, write_compare_bands  # noqa: F401 - importable here
@@ -67,6 +70,8 @@ class MonteCarloResult:
     labels : tuple
     perturbed : str
         The inputs that scattered for the arm (``none``: the percentiles coincide).
+    tissue_law : str
+        The arm's tissue (:func:`~phri_spring.reports.tissue_law_text.arm_law_text`).
     """
 
     forces: np.ndarray
@@ -75,6 +80,7 @@ class MonteCarloResult:
     not_converged: int
     labels: tuple
     perturbed: str = ""
+    tissue_law: str = ""
 
 
 class MonteCarloStream:
@@ -102,6 +108,8 @@ class MonteCarloStream:
         Samples per block.
     perturbed : str
         The inputs that scatter for this arm (``none`` when none does).
+    tissue_law : str
+        The arm's tissue law, e.g. ``exponential tissue law, beta 150 1/m``.
     not_converged : int
         (draw, sample) pairs the solver did not converge on so far (left out).
     """
@@ -115,6 +123,7 @@ class MonteCarloStream:
         cfgs = draw_configs(cfg, inputs, self.draws, self.seed)
         #: what scattered for this arm (:func:`.uncertain_draws.perturbed_text`)
         self.perturbed = perturbed_text(cfg, inputs, arm)
+        self.tissue_law = f"{arm} arm: {arm_law_text(cfg, arm)}"
         if reaches_model(cfg, inputs, arm):
             check_fe_cache(cfg, inputs, [arm])
             self.models = [model_from_config(c, arm) for c in cfgs]
@@ -217,7 +226,7 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
         e = min(m, s + mc.block_samples)
         out_f[:, s:e], out_r[:, s:e] = mc.block(c, w[s:e])
     return MonteCarloResult(out_f, out_r, mc.draws, mc.not_converged, tuple(cfg.labels),
-                            mc.perturbed)
+                            mc.perturbed, mc.tissue_law)
 
 
 def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
@@ -262,12 +271,15 @@ class MonteCarloRun:
     max_pain_ratio_time: float = math.nan
     #: the inputs that scattered for the arm that ran
     perturbed: str = ""
+    #: the arm and its tissue law (``compliant arm: exponential tissue law, beta 150 1/m``)
+    tissue_law: str = ""
 
     def summary_line(self) -> str:
         """The line ``phri simulate --uncertainty`` ends with: sizes, draws, the peak."""
         return monte_carlo_summary_line(
             self.output, samples=self.samples, elements=len(self.labels), draws=self.draws,
             seed=self.seed, not_converged=self.not_converged, perturbed=self.perturbed,
+            tissue_law=self.tissue_law,
             max_pain_ratio_p95=self.max_pain_ratio_p95,
             max_pain_ratio_time=self.max_pain_ratio_time)
 
@@ -316,7 +328,7 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
                 progress(samples, total)
     return MonteCarloRun(run.output, samples, mc.draws, mc.not_converged, tuple(cfg.labels),
                          mc.seed, peak if samples and np.isfinite(peak) else math.nan,
-                         peak_time, mc.perturbed)
+                         peak_time, mc.perturbed, mc.tissue_law)
 
 
 def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed,
