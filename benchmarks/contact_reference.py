@@ -45,7 +45,6 @@ for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import copy  # noqa: E402
-import functools  # noqa: E402
 import platform  # noqa: E402
 import resource  # noqa: E402
 import sys  # noqa: E402
@@ -62,8 +61,8 @@ from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
 from phri_spring.physics import fe_contact as fc  # noqa: E402
 from phri_spring.physics.fe_mesh import DEFAULT_LEVEL  # noqa: E402
 from phri_spring.physics.solver import solve  # noqa: E402
-from phri_spring.workflows.common import (continuum_modulus, cuff_wrench,  # noqa: E402
-                                          model_from_config)
+from phri_spring.workflows.common import (continuum_modulus, coupled_model,  # noqa: E402
+                                          cuff_wrench, model_from_config)
 
 VARIANTS = ("bonded", "mu", "frictionless")
 FAMILY = {"loadcell": "through load cell", "centre": "through centre"}
@@ -75,20 +74,6 @@ def config(path, mu):
         raw = copy.deepcopy(raw)
         raw.setdefault("interface", {})["friction_coefficient"] = float(mu)
     return config_from_dict(raw, path=path, base_dir=Path(path).parent)
-
-
-def coupled_at_level(cfg, level, cache_dir):
-    """The coupled model of a config (``model_from_config(cfg, "coupled")``, the library's
-    own build) with its surface stiffness built at mesh ``level``: the library's
-    ``load_or_build`` is called with ``level`` while the model is built."""
-    import phri_spring.io.surface_stiffness as ss
-
-    build = ss.load_or_build
-    ss.load_or_build = functools.partial(build, level=level)
-    try:
-        return model_from_config(cfg, "coupled", cache_dir=cache_dir)
-    finally:
-        ss.load_or_build = build
 
 
 def cases(cfg, forces, through):
@@ -248,7 +233,7 @@ def main(argv=None):
         models = {}
         for k in VARIANTS:
             try:
-                models[k] = coupled_at_level(cfgs[k], level, args.cache_dir)
+                models[k] = coupled_model(cfgs[k], level=level, cache_dir=args.cache_dir)
             except (PhriError, ValueError, TypeError) as exc:
                 models[k] = None
                 print(f"- level {level}, {k}: coupled model not available ({exc})")

@@ -13,8 +13,9 @@ of free skin between neighbouring plates removes the jump. Two studies:
     patch_gap 1, 2 and 4 mm in the 35-deg cells.
 ``presets``
     ``configs/human_upper_arm.yaml`` and ``configs/harmony_upper_arm.yaml`` through the
-    config's own coupled-model builder (``model_from_config(cfg, 'coupled')``, its FE
-    built at each mesh level), with their own compliant cuff and with a rigid one
+    config's own coupled-model builder (``coupled_model(cfg, level=...)``, the builder of
+    ``model_from_config(cfg, 'coupled')``, its FE built at each mesh level), with their own
+    compliant cuff and with a rigid one
     (``cuff.stiffness: .inf``): the patch normal forces under the paper's loads (load
     cell z = horizontal and y = vertical, both signs, 11.1, 33.4 and 55.6 N, through
     ``cuff_wrench``, solved by ``solver.solve``), lift-off included. The figure of merit
@@ -45,7 +46,6 @@ Each prints a markdown table (``--json FILE`` also keeps the raw numbers); the t
 from __future__ import annotations
 
 import argparse
-import contextlib
 import dataclasses
 import json
 import os
@@ -58,7 +58,6 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from phri_spring.io import surface_stiffness as ss  # noqa: E402
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.physics import fe_tissue as fe  # noqa: E402
 from phri_spring.physics.geometry import cuff_geometry  # noqa: E402
@@ -126,17 +125,6 @@ def run_three(levels, state):
 
 # ------------------------------------------------------------------------ presets
 
-@contextlib.contextmanager
-def fe_level(level):
-    """The config's coupled-model builder, with its FE built at ``level``."""
-    orig = ss.load_or_build
-    ss.load_or_build = lambda *a, **k: orig(*a, level=level, **k)
-    try:
-        yield
-    finally:
-        ss.load_or_build = orig
-
-
 #: with friction, each load is reached by a ramp of this many equal steps from zero
 RAMP_STEPS = 20
 
@@ -152,8 +140,7 @@ def preset_forces(cfg, gap, level, cache_dir, rigid=False, mu=None):
     if mu is not None:
         kw["friction_coefficient"] = mu
     c = dataclasses.replace(cfg, **kw)
-    with fe_level(level):
-        model = common.model_from_config(c, "coupled", cache_dir=cache_dir)
+    model = common.coupled_model(c, level=level, cache_dir=cache_dir)
     W_lc, _ = paper_loads()
     if mu is None:
         sol = solve(model, common.cuff_wrench(c, W_lc))

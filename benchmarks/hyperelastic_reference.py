@@ -34,7 +34,6 @@ for _v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import copy  # noqa: E402
-import functools  # noqa: E402
 import json  # noqa: E402
 import platform  # noqa: E402
 import resource  # noqa: E402
@@ -50,7 +49,7 @@ sys.path.insert(0, str(ROOT))
 from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
 from phri_spring.physics import fe_hyper as fh  # noqa: E402
 from phri_spring.physics.fe_reference import direct_rigid_cuff_response  # noqa: E402
-from phri_spring.workflows.common import continuum_modulus, model_from_config  # noqa: E402
+from phri_spring.workflows.common import continuum_modulus, coupled_model  # noqa: E402
 
 FORCES = (11.1, 33.4, 55.6)      # N, the paper's load levels (contact_reference.py)
 ARM = 0.035                      # m: moment = force x 35 mm
@@ -66,18 +65,6 @@ def rigid_config(path):
     raw = copy.deepcopy(load_yaml(path))
     raw["cuff"]["stiffness"] = float("inf")
     return config_from_dict(raw, path=path, base_dir=Path(path).parent)
-
-
-def coupled_at_level(cfg, level, cache_dir):
-    """``model_from_config(cfg, "coupled")`` with its surface stiffness built at ``level``."""
-    import phri_spring.io.surface_stiffness as ss
-
-    build = ss.load_or_build
-    ss.load_or_build = functools.partial(build, level=level)
-    try:
-        return model_from_config(cfg, "coupled", cache_dir=cache_dir)
-    finally:
-        ss.load_or_build = build
 
 
 def load_cases(full):
@@ -100,7 +87,7 @@ def load_cases(full):
 def add_linear_bonded(cfg, L, cache_dir):
     """The linear coupled model's bonded answer (rigid cuff, no lift-off) to each case of c:
     f = f0 + N_out T H^-1 W, u = H^-1 W with H = T^T C_t^-1 T (its preload carries W_pre)."""
-    cm = coupled_at_level(cfg, L["level"], cache_dir)
+    cm = coupled_model(cfg, level=L["level"], cache_dir=cache_dir)
     K = np.linalg.inv(cm.C_t)
     H = cm.T.T @ K @ cm.T
     for c in L["load_control"]:
@@ -121,7 +108,7 @@ def run_level(cfg, level, args):
     E = float(np.mean(continuum_modulus(cfg)))
     out = dict(level=level)
     t0 = time.perf_counter()
-    cm = coupled_at_level(cfg, level, args.cache_dir)
+    cm = coupled_model(cfg, level=level, cache_dir=args.cache_dir)
     out["coupled_seconds"] = time.perf_counter() - t0
     log(f"level {level}: linear coupled model (rigid cuff) in {out['coupled_seconds']:.0f} s")
     cross_on, push_on = level <= args.cross_max_level, level <= args.push_max_level

@@ -175,6 +175,16 @@ def _fe_module(cfg: Config):
                          "cuff's patches (needs tissue.continuum; docs/model.md section 10)")
 def _coupled_model(cfg: Config, cache_dir=None):
     """The coupled tissue model of a config (docs/model.md section 10)."""
+    return coupled_model(cfg, cache_dir=cache_dir)
+
+
+def coupled_model(cfg: Config, *, cache_dir=None, level=None):
+    """The coupled tissue model of a config, its built-in FE at mesh ``level``.
+
+    What ``model_from_config(cfg, "coupled")`` builds (without its memory check), with the
+    FE's mesh level open to the convergence and reference benchmarks; ``level=None`` is
+    the shipped :data:`~phri_spring.physics.fe_mesh.DEFAULT_LEVEL`.
+    """
     from ..physics.coupled import build_coupled_model, scale_patches
 
     key = "tissue.continuum"
@@ -217,8 +227,10 @@ def _coupled_model(cfg: Config, cache_dir=None):
     else:
         E = continuum_modulus(cfg, geom)
         _fe_module(cfg)
+        at_level = {} if level is None else {"level": int(level)}
         K, info = load_or_build(geom, t, float(np.mean(E)), cfg.poisson_ratio,
-                                cache_dir=cache_dir, patch_gap=cfg.continuum_patch_gap)
+                                cache_dir=cache_dir, patch_gap=cfg.continuum_patch_gap,
+                                **at_level)
         N = info.get("N")
     if cfg.continuum_spread == "per_patch":
         if E is None:
