@@ -189,27 +189,17 @@ def _special(dest: Path) -> bool:
     return not (stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode))
 
 
-def _make_temporary(parent, prefix: str, suffix: str, directory: bool, claim):
-    """Make a new hidden temporary file or folder in ``parent``; its path is handed to
-    ``claim`` *before* it exists.
+def _temporary_names(parent, prefix: str, suffix: str):
+    """Fresh hidden names for a temporary file or folder in ``parent``.
 
     The command line turns Ctrl-C, SIGTERM and SIGHUP into exceptions (``cli/_common.py``)
-    that can be raised between any two steps. With ``mkstemp``/``mkdtemp`` one arriving
-    after the path was made but before the caller knew its name left the path behind; here
-    the caller's clean-up already knows the name (removing a path not made yet does
-    nothing). Returns the open file descriptor (files) or None.
+    that can be raised between any two steps. ``mkstemp``/``mkdtemp`` return the name only
+    after making the path, so one arriving in between left it behind; the writers below
+    hold the name first and then make the path exclusively, so their clean-up always knows
+    it (removing a path not made yet does nothing).
     """
     for _ in range(100):
-        path = Path(parent) / f"{prefix}{os.getpid()}-{secrets.token_hex(6)}{suffix}"
-        claim(path)
-        try:
-            if directory:
-                os.mkdir(path, 0o700)
-                return None
-            return os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
-                           0o600)
-        except FileExistsError:   # someone else's: not ours to remove
-            claim(None)
+        yield Path(parent) / f"{prefix}{os.getpid()}-{secrets.token_hex(6)}{suffix}"
     raise FileExistsError(errno.EEXIST, "no free temporary name", str(parent))
 
 
@@ -234,11 +224,14 @@ def atomic_file(dest, suffix: str | None = None):
         return
     suffix = dest.suffix if suffix is None else suffix
     tmp = None
-    holder = []     # the temporary's name, known before it exists
     try:
-        fd = _make_temporary(dest.parent if str(dest.parent) else Path("."), f".{dest.name}.",
-                             f".tmp{suffix}", False, holder.append)
-        tmp = holder[-1]
+        for tmp in _temporary_names(dest.parent if str(dest.parent) else Path("."),
+                                    f".{dest.name}.", f".tmp{suffix}"):
+            try:
+                fd = os.open(tmp, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o600)
+                break
+            except FileExistsError:   # someone else's: not ours to remove
+                tmp = None
         try:
             os.fchmod(fd, _new_mode(dest, 0o666))
         finally:
@@ -248,24 +241,15 @@ def atomic_file(dest, suffix: str | None = None):
         os.replace(tmp, dest)
         tmp = None
     except OSError as exc:
-        tmp = _claimed(tmp, holder)
         if tmp is not None:
             _unlink(tmp)
         if tmp is not None and not _is_ours(exc, tmp):
             raise
         raise output_error(exc, dest, tmp) from None
     except BaseException:
-        tmp = _claimed(tmp, holder)
         if tmp is not None:
             _unlink(tmp)
         raise
-
-
-def _claimed(tmp, holder):
-    """The temporary path to clean up: ``tmp``, or the one claimed before the failure."""
-    if tmp is None and holder:
-        return holder[-1]
-    return tmp
 
 
 def _unlink(path: Path) -> None:
@@ -287,10 +271,13 @@ def atomic_directory(dest):
     dest = Path(dest)
     parent = dest.parent if str(dest.parent) else Path(".")
     tmp = None
-    holder = []     # the temporary's name, known before it exists
     try:
-        _make_temporary(parent, f".{dest.name}.", ".tmp", True, holder.append)
-        tmp = holder[-1]
+        for tmp in _temporary_names(parent, f".{dest.name}.", ".tmp"):
+            try:
+                os.mkdir(tmp, 0o700)
+                break
+            except FileExistsError:   # someone else's: not ours to remove
+                tmp = None
         os.chmod(tmp, 0o777 & ~umask())
         yield tmp
         _before_commit()
@@ -307,7 +294,6 @@ def atomic_directory(dest):
             shutil.rmtree(tmp, ignore_errors=True)
         tmp = None
     except OSError as exc:
-        tmp = _claimed(tmp, holder)
         if tmp is not None and not _is_ours(exc, tmp):
             shutil.rmtree(tmp, ignore_errors=True)
             raise
@@ -319,7 +305,6 @@ def atomic_directory(dest):
             shutil.rmtree(tmp, ignore_errors=True)
         raise err from None
     except BaseException:
-        tmp = _claimed(tmp, holder)
         if tmp is not None:
             shutil.rmtree(tmp, ignore_errors=True)
         raise

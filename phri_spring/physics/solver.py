@@ -565,6 +565,7 @@ class Solver:
         self._S = np.ones((1, self._system.n), dtype=bool)
         self._keys = set_keys(self._S)
         self._q = None
+        self._f_nl = None      # a nonlinear law's forces of the last call, from its iteration
         self.last_iterations = 0
         self.last_converged = True
 
@@ -628,7 +629,7 @@ class Solver:
         u = self.displacement(wrench)
         if getattr(self.model, "friction_coefficient", None) is not None:
             return self._q.copy()
-        if getattr(self, "_f_nl", None) is not None:
+        if self._f_nl is not None:
             f = self._f_nl[0].copy()
         else:
             f = self._system.forces(self._q, u=u[None])[0]

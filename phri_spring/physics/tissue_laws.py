@@ -265,8 +265,6 @@ class ExponentialLaw(TissueLaw):
                                "F = (k0/beta)(exp(beta d) - 1)", default=0.0, minimum=0.0,
                                csv_column="stiffening_per_m"),)
 
-    _k0_over_beta = None   # k0 / beta per element, made on first use by force_tangent
-
     def linear_here(self) -> bool:
         return bool(np.all(self.params["stiffening"] == 0.0))
 
@@ -291,14 +289,11 @@ class ExponentialLaw(TissueLaw):
         # one expm1 for both: F = (k0/beta) expm1(x), F' = k0 (1 + expm1(x)); d >= 0 here
         beta = self.params["stiffening"]
         em = np.expm1(beta * d)
-        if self._k0_over_beta is None:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                self._k0_over_beta = np.where(beta > 0, self.k0 / np.where(beta > 0, beta, 1.0), 0.0)
-            self._all_stiffen = bool(np.all(beta > 0))
-        if self._all_stiffen:
-            F = self._k0_over_beta * em
+        stiffens = beta > 0
+        if stiffens.all():
+            F = self.k0 / beta * em
         else:   # elements with beta = 0 are linear: k0 d
-            F = np.where(beta > 0, self._k0_over_beta * em, self.k0 * d)
+            F = np.where(stiffens, self.k0 / np.where(stiffens, beta, 1.0) * em, self.k0 * d)
         return F, self.k0 * (1.0 + em)
 
     def energy(self, d):

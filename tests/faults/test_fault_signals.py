@@ -149,19 +149,20 @@ def test_signal_right_after_the_temporary_is_made_leaves_nothing(tmp_path, monke
     call that made it returns."""
     import os
     import signal
+    from pathlib import Path
 
     from phri_cli._common import Interrupted, _on_signal
-    from phri_spring.io import atomic
     from phri_spring.io.atomic import atomic_directory, atomic_file
 
-    real = atomic._make_temporary
+    real = os.mkdir if kind == "directory" else os.open
 
-    def make_then_signal(*args, **kwargs):
-        made = real(*args, **kwargs)          # the path exists; the writer has not seen it
-        os.kill(os.getpid(), signal.SIGTERM)
+    def make_then_signal(path, *args, **kwargs):
+        made = real(path, *args, **kwargs)     # the path exists; the call has not returned
+        if Path(path).name.startswith(".out."):
+            os.kill(os.getpid(), signal.SIGTERM)
         return made
 
-    monkeypatch.setattr(atomic, "_make_temporary", make_then_signal)
+    monkeypatch.setattr(os, "mkdir" if kind == "directory" else "open", make_then_signal)
     old = signal.signal(signal.SIGTERM, _on_signal)
     try:
         with pytest.raises(Interrupted):
