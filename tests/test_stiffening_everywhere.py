@@ -295,3 +295,20 @@ def test_design_bad_stiffening_is_one_line(folder):
     study = _study(folder, "study_sd", uncertainty={"stiffening_sd": "lots"})
     res = run_phri("design", study, "-o", folder / "sd", "--no-figures")
     assert_one_line_error(res, "uncertainty.stiffening_sd", "from_csv")
+
+
+@pytest.mark.parametrize("value", ["abc", "-1", "nan"])
+def test_bad_stiffening_sd_on_the_command_line_is_one_line(folder, value):
+    out = folder / f"bad_sd_{value}.csv"
+    res = run_phri("simulate", folder / "stiff.yaml", folder / "log.csv", "-o", out,
+                   "--uncertainty", "3", "--uncertainty-sd", f"stiffening={value}")
+    assert_one_line_error(res, "--uncertainty-sd", "stiffening", ">= 0", code=2)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("value", [-1.0, float("nan")])
+def test_bad_stiffening_sd_in_a_study_is_one_line(folder, value):
+    study = _study(folder, f"study_sd_{value}", uncertainty={"stiffening_sd": value})
+    res = run_phri("design", study, "-o", folder / f"sd_{value}", "--no-figures")
+    assert_one_line_error(res, "uncertainty.stiffening_sd", ">= 0")
+    assert not (folder / f"sd_{value}").exists()
