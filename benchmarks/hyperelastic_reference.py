@@ -165,7 +165,7 @@ def run_level(cfg, level, args):
     args_push = args.push_mm if push_on else 0
     d_mm = np.arange(0, args_push + 1) if args_push else np.arange(0)
     push = dict(displacement_mm=d_mm.tolist())
-    for name, mdl in (("neo_hookean", nh), ("linear", lin)):
+    for name, mdl in (("neo_hookean", nh), ("linear", lin)) if push_on else ():
         for sense, sign in (("push", 1), ("pull", -1)):
             mdl.restore({})
             Wy, Fn_ = [], []

@@ -105,6 +105,14 @@ class _Continuum(_Strict):
     #: free skin left between neighbouring patches (docs/coupled-fe.md); None: the FE's default
     patch_gap: Optional[float] = Field(default=None, ge=0, allow_inf_nan=False,
                                        json_schema_extra=_unit("m"))
+    #: the continuum's material (docs/model.md section 10.8): linear elastic, or the reduced
+    #: neo-Hookean model identified by the large-deformation FE (extra ``hyper``)
+    law: Literal["linear", "neo_hookean"] = "linear"
+    #: the neo-Hookean model's identified range: wrenches up to these sizes
+    max_force: float = Field(default=70.0, gt=0, allow_inf_nan=False,
+                             json_schema_extra=_unit("N"))
+    max_moment: float = Field(default=2.5, gt=0, allow_inf_nan=False,
+                              json_schema_extra=_unit("N*m"))
 
 
 class _Tissue(_Strict):
@@ -239,6 +247,9 @@ class Config:
     continuum_surface_stiffness: Optional[Path] = None  # a user's FE export (.npz)
     continuum_spread: str = "mean"                     # mean | per_patch
     continuum_patch_gap: Optional[float] = None        # [m] tissue.continuum.patch_gap
+    continuum_law: str = "linear"                      # linear | neo_hookean
+    continuum_max_force: float = 70.0                  # [N] tissue.continuum.max_force
+    continuum_max_moment: float = 2.5                  # [N*m] tissue.continuum.max_moment
     friction_coefficient: Optional[float] = None       # [-] interface.friction_coefficient
     tissue_law: str = "linear"                         # a name of physics.tissue_laws.TISSUE_LAWS
     # the law's class: pickled by reference with the config, so that worker processes (a
@@ -410,6 +421,9 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         continuum_spread="mean" if cont is None else cont.spread,
         continuum_patch_gap=None if cont is None or cont.patch_gap is None
         else float(cont.patch_gap),
+        continuum_law="linear" if cont is None else cont.law,
+        continuum_max_force=70.0 if cont is None else float(cont.max_force),
+        continuum_max_moment=2.5 if cont is None else float(cont.max_moment),
         friction_coefficient=None if root.interface.friction_coefficient is None
         else float(root.interface.friction_coefficient),
         tissue_law=law, tissue_law_class=law_cls, tissue_law_parameters=law_params,

@@ -42,7 +42,7 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
     g = model.geometry
     normals = g.normals
     circ = np.cross(normals, np.array([1.0, 0.0, 0.0]))
-    if hasattr(model, "K_t") and tangential is None:
+    if hasattr(model, "patch_forces") and tangential is None:
         # the coupled model's program forces (the normal force along n_e, not the traction
         # integral it reports): these are what balance the wrench
         P = model.patch_forces(u, S)

@@ -358,6 +358,8 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     max_iterations = int(max_iterations)
     if getattr(model, "friction_coefficient", None) is not None:
         return _solve_friction(model, W, single, cache)
+    if hasattr(model, "solve_wrenches"):
+        return _solve_direct(model, W, single, out, max_iterations)
     system = make_system(model, cache)
     linear = model.is_linear
     m, n = len(W), system.n
@@ -415,6 +417,32 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     if not conv.all():
         forces[~conv] = np.nan
         contact[~conv] = False
+    if single:
+        return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
+                        contact=contact[0])
+    return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
+
+
+#: rows per call of a model's own solver (bounds its (rows x monomials) temporaries)
+_DIRECT_ROWS = 2048
+
+
+def _solve_direct(model, W, single: bool, out, max_iterations: int) -> Solution:
+    """A model that solves its samples itself (``model.solve_wrenches``, e.g. the reduced
+    neo-Hookean coupled model): its rows in blocks, into ``out`` if given."""
+    m, n = len(W), model.n
+    if out is not None and not (isinstance(out, np.ndarray) and out.shape == (m, n)
+                                and out.dtype == np.float64 and out.flags.c_contiguous):
+        raise ValueError(f"out: expected a C-contiguous float64 array of shape ({m}, {n})")
+    forces = np.empty((m, n)) if out is None else out
+    u = np.empty((m, 6))
+    its = np.empty(m, dtype=np.int64)
+    conv = np.empty(m, dtype=bool)
+    contact = np.empty((m, n), dtype=bool)
+    for s in range(0, m, _DIRECT_ROWS):
+        e = min(m, s + _DIRECT_ROWS)
+        u[s:e], forces[s:e], its[s:e], conv[s:e], contact[s:e] = model.solve_wrenches(
+            W[s:e], max_iterations)
     if single:
         return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
                         contact=contact[0])
@@ -486,6 +514,10 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     W = np.atleast_2d(np.asarray(wrench, dtype=float))
     if getattr(model, "friction_coefficient", None) is not None:
         return _per_sample_friction(model, W)
+    if hasattr(model, "solve_wrenches"):
+        rows = [model.solve_wrenches(W[i:i + 1], max_iterations) for i in range(len(W))]
+        u, f, its, conv, contact = (np.concatenate(a) for a in zip(*rows))
+        return Solution(u=u, forces=f, iterations=its, converged=conv, contact=contact)
     system = make_system(model, FactorCache(maxsize=0))
     m, n = len(W), system.n
     u = np.zeros((m, 6))
@@ -559,10 +591,11 @@ class Solver:
         self.model = model
         self.max_iterations = int(max_iterations)
         self.cache = FactorCache()
-        self._system = make_system(model, self.cache)
+        self._direct = hasattr(model, "solve_wrenches")
+        self._system = None if self._direct else make_system(model, self.cache)
         self._linear = model.is_linear
         self._wpre = model.W_pre
-        self._S = np.ones((1, self._system.n), dtype=bool)
+        self._S = np.ones((1, model.n), dtype=bool)
         self._keys = set_keys(self._S)
         self._q = None
         self._f_nl = None      # a nonlinear law's forces of the last call, from its iteration
@@ -573,6 +606,8 @@ class Solver:
         """Cuff displacement u (6,) [m, rad] for one wrench W (6,) [N, N*m] in the cuff frame."""
         if getattr(self.model, "friction_coefficient", None) is not None:
             return self._friction_step(wrench)
+        if self._direct:
+            return self._direct_step(wrench)
         r = np.asarray(wrench, dtype=float) + self._wpre
         size = np.abs(r).max() if r.shape == (6,) else np.nan
         if not size <= _HUGE and not np.isfinite(size):
@@ -601,6 +636,16 @@ class Solver:
         self._S, self._q = S, q
         return u[0]
 
+    def _direct_step(self, wrench) -> np.ndarray:
+        """One sample of a model that solves its samples itself (``solve_wrenches``)."""
+        W = np.asarray(wrench, dtype=float)
+        if W.shape != (6,) or not np.all(np.isfinite(W)):
+            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
+        u, f, its, conv, contact = self.model.solve_wrenches(W[None], self.max_iterations)
+        self.last_iterations, self.last_converged = int(its[0]), bool(conv[0])
+        self._f_nl, self._q, self._S = f, f[0], contact
+        return u[0]
+
     def _friction_step(self, wrench) -> np.ndarray:
         """One sample of the loading path with friction, from where the last call left it."""
         W = np.asarray(wrench, dtype=float)
@@ -618,7 +663,7 @@ class Solver:
     def last_contact(self) -> np.ndarray:
         """The contact set (n,) bool the last call settled on (all False if it did not converge)."""
         if self._q is None:
-            return np.zeros(self._system.n, dtype=bool)
+            return np.zeros(self.model.n, dtype=bool)
         return self._S[0] & self.last_converged
 
     def forces(self, wrench) -> np.ndarray:

@@ -88,12 +88,16 @@ def _law_keys(cfg) -> list:
 
 def arm_law_text(cfg, arm: str) -> str:
     """What the tissue of an arm is: the compliant arm's law (:func:`law_text`), ``no tissue
-    (cuff springs only)`` for the rigid arm, ``linear continuum`` for the coupled arm (with
-    the note that the law's parameters are not used by it, when the config gives a
+    (cuff springs only)`` for the rigid arm, ``linear continuum`` (or ``neo-Hookean
+    continuum``, ``tissue.continuum.law``) for the coupled arm (with the note that the law's parameters are not used by it, when the config gives a
     nonlinear law)."""
     if arm == "rigid":
         return "no tissue (cuff springs only)"
     if arm == "coupled":
+        if getattr(cfg, "continuum_law", "linear") == "neo_hookean":
+            return ("neo-Hookean continuum (reduced model, rigid bonded cuff; tissue.stiffening "
+                    "is used by the compliant arm only)" if is_nonlinear(cfg) else
+                    "neo-Hookean continuum (reduced model, rigid bonded cuff)")
         if not is_nonlinear(cfg):
             return "linear continuum"
         keys = _law_keys(cfg)

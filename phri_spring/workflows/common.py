@@ -183,8 +183,21 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
 
     What ``model_from_config(cfg, "coupled")`` builds (without its memory check), with the
     FE's mesh level open to the convergence and reference benchmarks; ``level=None`` is
-    the shipped :data:`~phri_spring.physics.fe_mesh.DEFAULT_LEVEL`.
+    the shipped :data:`~phri_spring.physics.fe_mesh.DEFAULT_LEVEL`. With
+    ``tissue.continuum.law: neo_hookean`` the reduced neo-Hookean model
+    (:func:`~phri_spring.workflows.hyper_arm.hyper_coupled_model`) on this linear one.
     """
+    if cfg.continuum_law == "neo_hookean":
+        from .hyper_arm import hyper_coupled_model
+
+        return hyper_coupled_model(
+            cfg, lambda c, lv: _linear_coupled_model(c, cache_dir=cache_dir, level=lv),
+            cache_dir=cache_dir, level=level)
+    return _linear_coupled_model(cfg, cache_dir=cache_dir, level=level)
+
+
+def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
+    """:func:`coupled_model` with the linear continuum."""
     from ..physics.coupled import build_coupled_model, scale_patches
 
     key = "tissue.continuum"

@@ -1,0 +1,149 @@
+"""The reduced neo-Hookean model's identification, cached on disk (docs/model.md section 10.8).
+
+Identifying the corrections of :mod:`phri_spring.physics.hyper_reduced` solves the
+large-deformation FE at a few hundred cuff poses (minutes); the result is a few arrays,
+kept in the surface-stiffness cache folder under a key of everything it depends on.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError, ConvergenceError
+from ..physics import hyper_reduced as hr
+from .atomic import atomic_file
+from .surface_stiffness import default_cache_dir
+
+__all__ = ["IDENTIFY_LEVEL", "IDENTIFY_RAYS", "REDUCTION_FORMAT_VERSION", "reduction_key",
+           "load_or_identify"]
+
+#: bump when the identification or the file layout changes: old entries are then ignored
+REDUCTION_FORMAT_VERSION = 1
+#: FE mesh level of the identification (its corrections' mesh error: benchmarks/HYPERELASTIC_ROM.md)
+IDENTIFY_LEVEL = 2
+#: rays of the identification (3 poses each; 84 coefficients per output)
+IDENTIFY_RAYS = 96
+
+
+def reduction_key(geometry, thickness, young_modulus, poisson_ratio, linear, *, max_force,
+                  max_moment, level, rays, patch_gap) -> str:
+    """SHA-256 (hex) of what the identification depends on: the patches, the material, the
+    preload (the identification-level linear model's delta and W_pre, which carry the
+    strap), the range, the mesh level, the rays and the format version."""
+    h = hashlib.sha256()
+    h.update(f"phri-spring neo-Hookean reduction v{REDUCTION_FORMAT_VERSION}\n".encode())
+    h.update("\x1f".join(geometry.labels).encode())
+    arrays = [np.asarray(getattr(geometry, k), float) for k in ("x", "radius", "row_width",
+                                                               "theta", "span", "points")]
+    arrays += [np.asarray(linear.delta, float), np.asarray(linear.W_pre, float)]
+    for arr in arrays:
+        arr = np.ascontiguousarray(arr, dtype="<f8")
+        h.update(str(arr.shape).encode())
+        h.update(arr.tobytes())
+    for value in (thickness, young_modulus, poisson_ratio, max_force, max_moment,
+                  -1.0 if patch_gap is None else patch_gap):
+        h.update(np.float64(value).tobytes())
+    h.update(f"level={int(level)};rays={int(rays)}".encode())
+    return h.hexdigest()
+
+
+def _read(path: Path, key: str, n: int):
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if str(z["key"]) != key:
+                return None
+            arrays = {k: np.array(z[k], dtype=float) for k in
+                      ("scale", "wrench", "normal", "patch", "range_map")}
+            info = {k[5:]: z[k].item() for k in z.files if k.startswith("info_")}
+    except Exception:  # noqa: BLE001 - any unreadable entry is identified again, never an error
+        return None
+    K = len(hr.EXPONENTS)
+    shapes = dict(scale=(6,), wrench=(K, 6), normal=(K, n), patch=(K, 6 * n), range_map=(6, 6))
+    if any(arrays[k].shape != s or not np.isfinite(arrays[k]).all() for k, s in shapes.items()):
+        return None
+    return hr.HyperReduction(info=info, **arrays)
+
+
+def _write(path: Path, key: str, red) -> str | None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        meta = {f"info_{k}": np.asarray(v) for k, v in red.info.items()
+                if isinstance(v, (int, float, str, bool))}
+        with atomic_file(path) as tmp:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, key=np.asarray(key), **red.arrays(), **meta)
+    except OSError as exc:
+        return f"{exc.strerror or exc} ({path})"
+    return None
+
+
+def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, *,
+                     max_force: float, max_moment: float, cache_dir=None,
+                     level: int = IDENTIFY_LEVEL, rays: int = IDENTIFY_RAYS, patch_gap=None,
+                     progress=None):
+    """The reduced model's corrections for a config, from the cache or identified now.
+
+    Parameters
+    ----------
+    geometry : CuffGeometry
+    thickness, young_modulus, poisson_ratio : float
+        The continuum: t [m], E [Pa], nu [-].
+    linear : CoupledModel
+        The linear coupled model with a rigid cuff at mesh ``level`` (its preload is the FE's).
+    max_force, max_moment : float
+        The identified range [N, N*m].
+    cache_dir : path, optional
+        Default :func:`~phri_spring.io.surface_stiffness.default_cache_dir`.
+    level, rays, patch_gap
+        The FE's mesh level, the ray count, the free skin between plates [m] (None: default).
+    progress : callable(done, total), optional
+        Called after each ray of an identification.
+
+    Returns
+    -------
+    HyperReduction
+        ``info`` gains ``source`` (``cache`` or ``identified``), ``path``, ``seconds`` and
+        ``cache_error`` (None, or why the result could not be cached).
+
+    Raises
+    ------
+    UsageError
+        felupe (extra ``hyper``) is missing and the cache has no entry.
+    ConfigError
+        The FE did not converge at an identification pose (a range too large for the cuff).
+    """
+    from ..physics import fe_hyper as fh
+    from ..physics.fe_mesh import DEFAULT_PATCH_GAP
+
+    t0 = time.perf_counter()
+    key = reduction_key(geometry, thickness, young_modulus, poisson_ratio, linear,
+                        max_force=max_force, max_moment=max_moment, level=level, rays=rays,
+                        patch_gap=patch_gap)
+    folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    path = folder / f"neo-hookean-{key[:32]}.npz"
+    red = _read(path, key, geometry.n)
+    if red is not None:
+        red.info.update(source="cache", cache_error=None)
+    else:
+        cuff = fh.build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio,
+                                   level=level, delta=linear.delta,
+                                   patch_gap=DEFAULT_PATCH_GAP if patch_gap is None
+                                   else patch_gap)
+        try:
+            red = hr.identify(cuff, hr.linear_bonded(linear), max_force=max_force,
+                              max_moment=max_moment, rays=rays, progress=progress)
+        except ConvergenceError as exc:
+            raise ConfigError(f"the neo-Hookean model's identification failed: {exc}, at a "
+                              f"pose the range asks for ({max_force:g} N, {max_moment:g} N*m "
+                              f"moves this cuff too far); expected a smaller "
+                              f"tissue.continuum.max_force / max_moment",
+                              key="tissue.continuum.max_force") from None
+        red.info["seconds_identify"] = time.perf_counter() - t0
+        error = _write(path, key, red)
+        red.info.update(source="identified", cache_error=error)
+    red.info.update(path=str(path), seconds=time.perf_counter() - t0)
+    return red

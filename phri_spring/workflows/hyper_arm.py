@@ -1,0 +1,99 @@
+"""Config -> the coupled arm with a neo-Hookean layer (``tissue.continuum.law: neo_hookean``).
+
+docs/model.md section 10.8. The reduced model is identified for a rigid cuff bonded over
+its patches, on the built-in FE, for one Young's modulus: a config outside that is told
+so in one line naming the key. The identification (minutes, once per config: cached)
+reports its progress through :func:`identification_progress`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from contextvars import ContextVar
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..io.config import Config
+
+__all__ = ["hyper_coupled_model", "identification_progress"]
+
+_PROGRESS: ContextVar = ContextVar("phri_identification_progress", default=None)
+
+
+@contextlib.contextmanager
+def identification_progress(callback):
+    """Within the block, an identification calls ``callback(done, total)`` after each ray."""
+    token = _PROGRESS.set(callback)
+    try:
+        yield
+    finally:
+        _PROGRESS.reset(token)
+
+
+def _check(cfg: Config, E) -> None:
+    path = cfg.path
+    if cfg.friction_coefficient is not None:
+        raise ConfigError("tissue.continuum.law neo_hookean is a bonded interface; expected no "
+                          "interface.friction_coefficient (friction runs with the linear "
+                          "continuum)", file=path, key="interface.friction_coefficient")
+    k = np.asarray(cfg.cuff_stiffness, float)
+    if not np.all(np.isinf(k)):
+        raise ConfigError("tissue.continuum.law neo_hookean is identified for a rigid cuff; "
+                          "expected cuff.stiffness: inf (a compliant cuff runs with the "
+                          "linear continuum)", file=path, key="cuff.stiffness")
+    if cfg.continuum_surface_stiffness is not None:
+        raise ConfigError("tissue.continuum.law neo_hookean runs the built-in FE; expected no "
+                          "tissue.continuum.surface_stiffness", file=path,
+                          key="tissue.continuum.surface_stiffness")
+    E = np.asarray(E, float)
+    if cfg.continuum_spread == "per_patch" and np.ptp(E) > 1e-12 * np.max(E):
+        raise ConfigError("tissue.continuum.law neo_hookean needs one Young's modulus for the "
+                          f"layer, got {E.min():.4g}-{E.max():.4g} Pa over the patches "
+                          "(tissue.continuum.spread per_patch)", file=path,
+                          key="tissue.continuum.spread")
+
+
+def hyper_coupled_model(cfg: Config, linear_builder, *, cache_dir=None, level=None):
+    """The reduced neo-Hookean coupled model of a config.
+
+    Parameters
+    ----------
+    cfg : Config
+        ``tissue.continuum.law: neo_hookean``.
+    linear_builder : callable(cfg, level) -> CoupledModel
+        Builds the linear coupled model of the config at a mesh level (None: the default).
+    cache_dir : path, optional
+        Where the FE's matrices and the identification are cached.
+    level : int, optional
+        Mesh level of the linear part (the identification's is ``IDENTIFY_LEVEL``).
+
+    Raises
+    ------
+    ConfigError
+        A config the reduced model is not identified for (one line, naming the key).
+    UsageError
+        felupe (extra ``hyper``) is needed and not installed.
+    """
+    from ..io import hyper_reduction as store
+    from ..physics.coupled_hyper import HyperCoupledModel
+    from .common import continuum_modulus
+
+    geom = cfg.geometry()
+    E = continuum_modulus(cfg, geom)
+    _check(cfg, E)
+    linear = linear_builder(cfg, level)
+    id_level = store.IDENTIFY_LEVEL
+    ident = linear if level == id_level else linear_builder(cfg, id_level)
+    try:
+        red = store.load_or_identify(
+            geom, cfg.continuum_thickness, float(np.mean(E)), cfg.poisson_ratio, ident,
+            max_force=cfg.continuum_max_force, max_moment=cfg.continuum_max_moment,
+            cache_dir=cache_dir, level=id_level, rays=store.IDENTIFY_RAYS,
+            patch_gap=cfg.continuum_patch_gap, progress=_PROGRESS.get())
+    except ConfigError as exc:
+        if exc.file is not None:
+            raise
+        raise ConfigError(exc.message, file=cfg.path, key=exc.key) from None
+    return HyperCoupledModel(linear=linear, reduction=red,
+                             pain_threshold_kpa=cfg.pain_threshold_kpa)
