@@ -111,7 +111,7 @@ class _Continuum(_Strict):
     #: the neo-Hookean model's identified range: wrenches up to these sizes
     max_force: float = Field(default=70.0, gt=0, allow_inf_nan=False,
                              json_schema_extra=_unit("N"))
-    max_moment: float = Field(default=2.5, gt=0, allow_inf_nan=False,
+    max_moment: float = Field(default=4.0, gt=0, allow_inf_nan=False,
                               json_schema_extra=_unit("N*m"))
 
 
@@ -249,7 +249,7 @@ class Config:
     continuum_patch_gap: Optional[float] = None        # [m] tissue.continuum.patch_gap
     continuum_law: str = "linear"                      # linear | neo_hookean
     continuum_max_force: float = 70.0                  # [N] tissue.continuum.max_force
-    continuum_max_moment: float = 2.5                  # [N*m] tissue.continuum.max_moment
+    continuum_max_moment: float = 4.0                  # [N*m] tissue.continuum.max_moment
     friction_coefficient: Optional[float] = None       # [-] interface.friction_coefficient
     tissue_law: str = "linear"                         # a name of physics.tissue_laws.TISSUE_LAWS
     # the law's class: pickled by reference with the config, so that worker processes (a
@@ -423,7 +423,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         else float(cont.patch_gap),
         continuum_law="linear" if cont is None else cont.law,
         continuum_max_force=70.0 if cont is None else float(cont.max_force),
-        continuum_max_moment=2.5 if cont is None else float(cont.max_moment),
+        continuum_max_moment=4.0 if cont is None else float(cont.max_moment),
         friction_coefficient=None if root.interface.friction_coefficient is None
         else float(root.interface.friction_coefficient),
         tissue_law=law, tissue_law_class=law_cls, tissue_law_parameters=law_params,

@@ -16,38 +16,35 @@ import numpy as np
 from ..errors import ConfigError, ConvergenceError
 from ..physics import hyper_reduced as hr
 from .atomic import atomic_file
-from .surface_stiffness import default_cache_dir
+from .surface_stiffness import cache_key, default_cache_dir
 
 __all__ = ["IDENTIFY_LEVEL", "IDENTIFY_RAYS", "REDUCTION_FORMAT_VERSION", "reduction_key",
            "load_or_identify"]
 
 #: bump when the identification or the file layout changes: old entries are then ignored
-REDUCTION_FORMAT_VERSION = 1
+REDUCTION_FORMAT_VERSION = 2
 #: FE mesh level of the identification (its corrections' mesh error: benchmarks/HYPERELASTIC_ROM.md)
 IDENTIFY_LEVEL = 2
 #: rays of the identification (3 poses each; 84 coefficients per output)
 IDENTIFY_RAYS = 96
 
 
-def reduction_key(geometry, thickness, young_modulus, poisson_ratio, linear, *, max_force,
+def reduction_key(geometry, thickness, young_modulus, poisson_ratio, strap, *, max_force,
                   max_moment, level, rays, patch_gap) -> str:
-    """SHA-256 (hex) of what the identification depends on: the patches, the material, the
-    preload (the identification-level linear model's delta and W_pre, which carry the
-    strap), the range, the mesh level, the rays and the format version."""
+    """SHA-256 (hex) of the inputs the identification depends on: those of the built-in FE's
+    surface stiffness (:func:`~phri_spring.io.surface_stiffness.cache_key`: patches,
+    thickness, Poisson ratio, mesh level, patch gap), Young's modulus, the strap (its
+    settings make the preload), the range, the rays and the format version. Inputs only:
+    a computed array (the preload offsets) differs in its last bits between BLAS builds
+    and thread counts, and would miss the cache."""
     h = hashlib.sha256()
     h.update(f"phri-spring neo-Hookean reduction v{REDUCTION_FORMAT_VERSION}\n".encode())
-    h.update("\x1f".join(geometry.labels).encode())
-    arrays = [np.asarray(getattr(geometry, k), float) for k in ("x", "radius", "row_width",
-                                                               "theta", "span", "points")]
-    arrays += [np.asarray(linear.delta, float), np.asarray(linear.W_pre, float)]
-    for arr in arrays:
-        arr = np.ascontiguousarray(arr, dtype="<f8")
-        h.update(str(arr.shape).encode())
-        h.update(arr.tobytes())
-    for value in (thickness, young_modulus, poisson_ratio, max_force, max_moment,
-                  -1.0 if patch_gap is None else patch_gap):
+    h.update(cache_key(geometry, thickness, poisson_ratio, level=level,
+                       patch_gap=patch_gap).encode())
+    h.update(repr(tuple(strap)).encode())
+    for value in (young_modulus, max_force, max_moment):
         h.update(np.float64(value).tobytes())
-    h.update(f"level={int(level)};rays={int(rays)}".encode())
+    h.update(f"rays={int(rays)}".encode())
     return h.hexdigest()
 
 
@@ -82,7 +79,7 @@ def _write(path: Path, key: str, red) -> str | None:
 
 
 def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, *,
-                     max_force: float, max_moment: float, cache_dir=None,
+                     max_force: float, max_moment: float, strap=(), cache_dir=None,
                      level: int = IDENTIFY_LEVEL, rays: int = IDENTIFY_RAYS, patch_gap=None,
                      progress=None):
     """The reduced model's corrections for a config, from the cache or identified now.
@@ -96,6 +93,9 @@ def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, 
         The linear coupled model with a rigid cuff at mesh ``level`` (its preload is the FE's).
     max_force, max_moment : float
         The identified range [N, N*m].
+    strap : tuple
+        The strap's settings (tension, model, handle angles, axial position): with the
+        patches and the material they make the linear model's preload (part of the key).
     cache_dir : path, optional
         Default :func:`~phri_spring.io.surface_stiffness.default_cache_dir`.
     level, rays, patch_gap
@@ -120,7 +120,7 @@ def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, 
     from ..physics.fe_mesh import DEFAULT_PATCH_GAP
 
     t0 = time.perf_counter()
-    key = reduction_key(geometry, thickness, young_modulus, poisson_ratio, linear,
+    key = reduction_key(geometry, thickness, young_modulus, poisson_ratio, strap,
                         max_force=max_force, max_moment=max_moment, level=level, rays=rays,
                         patch_gap=patch_gap)
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()

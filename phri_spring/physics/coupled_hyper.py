@@ -13,6 +13,7 @@ flagged as not converged (NaN forces), as every model does.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -95,12 +96,18 @@ class HyperCoupledModel(OnGeometry):
         (m,), converged (m,), contact (m, n) bool). Not converged rows: NaN forces."""
         W = np.atleast_2d(np.asarray(W, float))
         red = self.reduction
-        u, phi, its, conv = solve_poses(red, self.H, W, red.start(self.H, W),
+        u0 = (W - red.wrench[0]) @ self._start_map
+        u, phi, its, conv = solve_poses(red, self.H, W, u0,
                                         max_iterations=max(1, int(max_iterations)))
         forces = self.f0 + u @ self.N.T + phi @ red.normal
-        forces[~conv] = np.nan
-        contact = np.broadcast_to(conv[:, None], forces.shape).copy()
-        return u, forces, its, conv, contact
+        if not conv.all():
+            forces[~conv] = np.nan
+        return u, forces, its, conv, np.repeat(conv[:, None], self.n, axis=1)
+
+    @cached_property
+    def _start_map(self) -> np.ndarray:
+        """J0^-T: Newton's start u0 = (W - dR(0)) @ J0^-T, J0 the reduced tangent at u = 0."""
+        return np.linalg.inv(self.tangent_stiffness(np.zeros(6))).T
 
     def patch_forces(self, u, contact=None) -> np.ndarray:
         """Patch forces P (m, n, 6) in local axes [N, N*m] at poses u (m, 6): normal, axial,

@@ -23,9 +23,10 @@ doi:10.1016/j.jsv.2008.04.035, with the polynomial of Muravyov and Rizzi 2003, C
 Struct. 81:1513-1523, doi:10.1016/S0045-7949(03)00145-7). A wrench W is then the 6-unknown
 equation H u + dR(u / s) = W, solved by Newton's method from the linear answer.
 
-The rays reach the poses where the linear model carries wrenches of size 1 in the norm
-|(F / max_force, M / max_moment)|; a pose beyond that range (``range_ratio`` > 1) is
-outside what was identified and is reported as not converged. SI units; no files.
+The rays reach the poses where the linear model carries a force of ``max_force`` or a
+moment of ``max_moment`` (whichever comes first); a pose beyond that range
+(``range_ratio`` > 1) is outside what was identified and is reported as not converged.
+SI units; no files.
 """
 
 from __future__ import annotations
@@ -112,7 +113,8 @@ class HyperReduction:
     patch : ndarray, shape (K, n*6)
         Coefficients of dP, local axes per patch [N, N*m].
     range_map : ndarray, shape (6, 6)
-        D^-1 H: range_ratio(u) = |D^-1 H u|, D = diag(max_force x 3, max_moment x 3) [1/m, 1/rad].
+        D^-1 H, D = diag(max_force x 3, max_moment x 3) [1/m, 1/rad]: the scaled linear
+        wrench of a pose (:meth:`range_ratio`).
     info : dict
         How it was identified: ``level``, ``max_force`` [N], ``max_moment`` [N*m],
         ``rays``, ``fractions``, ``samples``, the fit's RMS residuals (``fit_rms_*``), FE
@@ -128,8 +130,9 @@ class HyperReduction:
     info: dict = field(default_factory=dict)
 
     def range_ratio(self, u) -> np.ndarray:
-        """|D^-1 H u| (m,) of poses u (m, 6): > 1 is outside the identified range."""
-        return np.linalg.norm(np.atleast_2d(u) @ self.range_map.T, axis=1)
+        """max(|F| / max_force, |M| / max_moment) (m,) of the linear wrench (F, M) = H u of
+        poses u (m, 6): > 1 is outside the identified range."""
+        return _box_norm(np.atleast_2d(u) @ self.range_map.T)
 
     @cached_property
     def jacobian_map(self) -> np.ndarray:
@@ -149,20 +152,26 @@ class HyperReduction:
                     patch=self.patch, range_map=self.range_map)
 
 
+def _box_norm(s: np.ndarray) -> np.ndarray:
+    """max(|s[:3]|, |s[3:]|) of rows s (m, 6) (the scaled force and moment)."""
+    return np.maximum(np.linalg.norm(s[:, :3], axis=1), np.linalg.norm(s[:, 3:], axis=1))
+
+
 def _range_scale(max_force: float, max_moment: float) -> np.ndarray:
     return np.array([max_force] * 3 + [max_moment] * 3, float)
 
 
 def identification_poses(H, max_force: float, max_moment: float, rays: int,
                          seed: int = 0) -> np.ndarray:
-    """Ray ends (rays, 6): u = H^-1 D d for unit directions d, half of them -d (antithetic).
+    """Ray ends (rays, 6): u = H^-1 D d, d a random direction scaled to the range's edge,
+    max(|d[:3]|, |d[3:]|) = 1; half of them -d (antithetic).
 
     H (6, 6) is the linear bonded model's stiffness; D as in :class:`HyperReduction`.
     """
     rng = np.random.default_rng(seed)
     half = (int(rays) + 1) // 2
     d = rng.standard_normal((half, 6))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d /= _box_norm(d)[:, None]
     d = np.concatenate([d, -d])[:int(rays)]
     return np.linalg.solve(H, (d * _range_scale(max_force, max_moment)).T).T
 
@@ -278,6 +287,8 @@ def solve_poses(red: HyperReduction, H, W, u0, *, tol: float = 1e-9,
     W = np.atleast_2d(np.asarray(W, float))
     m = len(W)
     u = np.array(u0, float, copy=True).reshape(m, 6)
+    if m == 1:
+        return _solve_one(red, np.asarray(H, float), W[0], u[0], tol, int(max_iterations), arm)
     wscale = np.array([1.0] * 3 + [1.0 / arm] * 3)
     limit = tol * (1.0 + np.linalg.norm(W * wscale, axis=1))
     its = np.zeros(m, dtype=np.int64)
@@ -322,6 +333,44 @@ def solve_poses(red: HyperReduction, H, W, u0, *, tol: float = 1e-9,
                 break
     conv &= red.range_ratio(u) <= 1.0 + 1e-9
     return u, phi_out, its, conv
+
+
+def _solve_one(red, H, w, u, tol, max_iterations, arm):
+    """:func:`solve_poses` for one row: the same iteration without the row bookkeeping
+    (a control loop's call)."""
+    inv_s, D, C = 1.0 / red.scale, red.jacobian_map, red.wrench
+    wscale = np.array([1.0, 1.0, 1.0, 1.0 / arm, 1.0 / arm, 1.0 / arm])
+    limit = tol * (1.0 + float(np.sqrt(((w * wscale) ** 2).sum())))
+    prev_u, prev_step, prev_size, t = u, np.zeros(6), np.inf, 1.0
+    its, ok, phi = 0, False, None
+    with np.errstate(over="ignore", invalid="ignore"):
+        for _ in range(max_iterations + 1):
+            x = (u * inv_s)[None]
+            low = _low(x)
+            phi = _cubic(low, x)
+            g = H @ u + phi[0] @ C - w
+            size = float(np.sqrt(((g * wscale) ** 2).sum()))
+            if size <= limit:
+                ok = True
+                break
+            if not size < prev_size:                 # halve the last step
+                t *= 0.5
+                if t <= 1e-6:
+                    break
+                u = prev_u - t * prev_step
+            elif np.isfinite(size):
+                J = H + (low[0] @ D).reshape(6, 6) * inv_s
+                step = np.linalg.solve(J, g)
+                prev_u, prev_step, prev_size, t = u, step, size, 1.0
+                u = u - step
+            else:
+                break
+            its += 1
+    if ok:
+        ok = bool(red.range_ratio(u[None])[0] <= 1.0 + 1e-9)
+    if not ok:
+        phi = np.full((1, len(EXPONENTS)), np.nan)
+    return u[None], phi, np.array([its]), np.array([ok])
 
 
 def linear_bonded(model) -> dict:

@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..io.config import Config
 
-__all__ = ["hyper_coupled_model", "identification_progress"]
+__all__ = ["hyper_coupled_model", "identification_progress", "strap_settings"]
 
 _PROGRESS: ContextVar = ContextVar("phri_identification_progress", default=None)
 
@@ -29,6 +29,12 @@ def identification_progress(callback):
         yield
     finally:
         _PROGRESS.reset(token)
+
+
+def strap_settings(cfg: Config) -> tuple:
+    """What of the config makes the strap's preload (a part of the identification's key)."""
+    return (float(cfg.strap_tension), str(cfg.strap_model), cfg.handle_angles_deg,
+            cfg.strap_axial_position)
 
 
 def _check(cfg: Config, E) -> None:
@@ -89,7 +95,7 @@ def hyper_coupled_model(cfg: Config, linear_builder, *, cache_dir=None, level=No
         red = store.load_or_identify(
             geom, cfg.continuum_thickness, float(np.mean(E)), cfg.poisson_ratio, ident,
             max_force=cfg.continuum_max_force, max_moment=cfg.continuum_max_moment,
-            cache_dir=cache_dir, level=id_level, rays=store.IDENTIFY_RAYS,
+            strap=strap_settings(cfg), cache_dir=cache_dir, level=id_level, rays=store.IDENTIFY_RAYS,
             patch_gap=cfg.continuum_patch_gap, progress=_PROGRESS.get())
     except ConfigError as exc:
         if exc.file is not None:

@@ -365,6 +365,11 @@ def check_fe_cache(cfg: Config, inputs: UncertainInputs, arms) -> None:
     if ("coupled" not in arms or cfg.continuum_surface_stiffness is not None
             or cfg.continuum_thickness is None or not reaches_model(cfg, inputs, "coupled")):
         return
+    if cfg.continuum_law == "neo_hookean":
+        raise UsageError("the coupled arm's Monte Carlo with tissue.continuum.law neo_hookean "
+                         "would identify the reduced model again for every draw of the "
+                         "modulus or the strap tension (minutes each); run the coupled arm's "
+                         "uncertainty with the linear continuum", key="tissue.continuum.law")
     from ..io.surface_stiffness import load_or_build_operators
     from .common import geometry_from_config, model_from_config
 
