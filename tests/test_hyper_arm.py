@@ -198,7 +198,8 @@ def test_monte_carlo_that_would_identify_per_draw_is_refused(tmp_path, monkeypat
     log = tmp_path / "log.csv"
     pd.DataFrame({"time": [0.0, 0.01], "Fx": [0.0] * 2, "Fy": [1.0] * 2, "Fz": [0.0] * 2,
                   "Mx": [0.0] * 2, "My": [0.0] * 2, "Mz": [0.0] * 2}).to_csv(log, index=False)
+    # a strap tension that scatters changes the preload, so every draw is another model
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "--uncertainty", 20,
-                   "-o", tmp_path / "f.csv")
+                   "--uncertainty-sd", "tension=1.5", "-o", tmp_path / "f.csv")
     assert_one_line_error(res, "tissue.continuum.law", "every draw", code=2)
     assert not (tmp_path / "f.csv").exists()
