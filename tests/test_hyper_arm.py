@@ -43,6 +43,15 @@ def _write(tmp_path, raw, name="cfg.yaml"):
     return path
 
 
+def _short_log(folder, rows=1):
+    """A log of ``rows`` samples of 1 N along +y (bad-config tests never solve it)."""
+    path = folder / "log.csv"
+    t = np.arange(rows) * 0.01
+    pd.DataFrame({"time": t, "Fx": 0 * t, "Fy": 1.0 + 0 * t, "Fz": 0 * t, "Mx": 0 * t,
+                  "My": 0 * t, "Mz": 0 * t}).to_csv(path, index=False)
+    return path
+
+
 @pytest.fixture(scope="module")
 def identified(tmp_path_factory):
     """(model at mesh level 1, its FE, the cache folder): identified once for the module."""
@@ -146,9 +155,7 @@ def test_configs_it_is_not_identified_for_are_one_line(tmp_path, edit, key):
     edit(raw)
     cfg = _write(tmp_path, raw)
     np.savez(tmp_path / "k.npz", K=np.eye(30), labels=np.array([f"A{i}" for i in range(5)]))
-    log = tmp_path / "log.csv"
-    pd.DataFrame({"time": [0.0], "Fx": [0.0], "Fy": [1.0], "Fz": [0.0], "Mx": [0.0],
-                  "My": [0.0], "Mz": [0.0]}).to_csv(log, index=False)
+    log = _short_log(tmp_path)
     out = tmp_path / "forces.csv"
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "-o", out)
     assert_one_line_error(res, key, code=1)
@@ -164,9 +171,7 @@ def test_a_range_the_fe_cannot_reach_is_one_line(tmp_path, monkeypatch):
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(store, "IDENTIFY_LEVEL", 1)
     cfg = _write(tmp_path, _raw(max_force=5000.0, max_moment=200.0))
-    log = tmp_path / "log.csv"
-    pd.DataFrame({"time": [0.0], "Fx": [0.0], "Fy": [1.0], "Fz": [0.0], "Mx": [0.0],
-                  "My": [0.0], "Mz": [0.0]}).to_csv(log, index=False)
+    log = _short_log(tmp_path)
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "-o", tmp_path / "f.csv")
     assert_one_line_error(res, str(cfg), "tissue.continuum.max_force", "identification", code=1)
     assert not (tmp_path / "f.csv").exists()
@@ -185,9 +190,7 @@ def test_missing_felupe_is_one_line_naming_the_extra(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_felupe)
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
     cfg = _write(tmp_path, _raw())
-    log = tmp_path / "log.csv"
-    pd.DataFrame({"time": [0.0], "Fx": [0.0], "Fy": [1.0], "Fz": [0.0], "Mx": [0.0],
-                  "My": [0.0], "Mz": [0.0]}).to_csv(log, index=False)
+    log = _short_log(tmp_path)
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "-o", tmp_path / "f.csv")
     assert_one_line_error(res, "hyper", code=2)
 
@@ -195,9 +198,7 @@ def test_missing_felupe_is_one_line_naming_the_extra(tmp_path, monkeypatch):
 def test_monte_carlo_that_would_identify_per_draw_is_refused(tmp_path, monkeypatch):
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
     cfg = _write(tmp_path, _raw())
-    log = tmp_path / "log.csv"
-    pd.DataFrame({"time": [0.0, 0.01], "Fx": [0.0] * 2, "Fy": [1.0] * 2, "Fz": [0.0] * 2,
-                  "Mx": [0.0] * 2, "My": [0.0] * 2, "Mz": [0.0] * 2}).to_csv(log, index=False)
+    log = _short_log(tmp_path, rows=2)
     # a strap tension that scatters changes the preload, so every draw is another model
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "--uncertainty", 20,
                    "--uncertainty-sd", "tension=1.5", "-o", tmp_path / "f.csv")

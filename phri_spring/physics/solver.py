@@ -26,8 +26,11 @@ from __future__ import annotations
 import numpy as np
 
 from .spd6 import spd_solve_batched as _spd_solve_batched
+from .solution import Solution
+from .spring_outputs import (compression, energy, forces_from_compression, normal_forces,
+                             shear_forces)
 from .active_set import (PLAIN_ITERATIONS, SET_RTOL, ContactSystem, FactorCache, iterate,
-                         key_groups, solve_warm)
+                         key_groups, set_keys, solve_warm)
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # annotations only: model.py imports this module for its contact system
@@ -41,95 +44,6 @@ __all__ = ["Solution", "solve", "solve_segments", "solve_per_sample", "Solver", 
 _BLOCK_ENTRIES = 1 << 21
 #: a cuff displacement beyond this [m, rad] is no answer (an absurd input: forces overflow)
 _HUGE = 1e100
-class Solution:
-    """Result of :func:`solve` for m samples and n elements.
-
-    Attributes
-    ----------
-    u : ndarray, shape (m, 6)
-        Cuff displacement (t [m], w [rad]).
-    forces : ndarray, shape (m, n)
-        Normal force on the arm f_e [N] (NaN where not converged).
-    contact : ndarray of bool, shape (m, n)
-        The contact set the solver settled on: the elements or patches whose
-        contact indicator is positive at the solution (pressing), False where not
-        converged. For the spring model this is f_e > 0. For the coupled model with
-        an output map (the built-in FE's traction integral) it is the set of patches
-        whose normal force in the program is positive, which a reported force
-        clipped at 0 cannot tell (a pressing patch can report 0 N).
-    iterations : ndarray of int, shape (m,)
-        Linear solves the sample needed.
-    converged : ndarray of bool, shape (m,)
-    tangential : ndarray, shape (m, n, 2), or None
-        With friction (docs/model.md section 12): the tangential force on the arm of every
-        element or patch (axial, circumferential) [N], which depends on the loading path
-        and so cannot be recomputed from u. None otherwise.
-    moments : ndarray, shape (m, n, 3), or None
-        With friction and patches with rotations: each patch's moment on the skin about
-        its centre, local axes (normal, axial, circumferential) [N*m]. None otherwise.
-    """
-
-    __slots__ = ("u", "forces", "iterations", "converged", "contact", "tangential", "moments")
-
-    def __init__(self, u, forces, iterations, converged, contact, tangential=None,
-                 moments=None):
-        self.u = u
-        self.forces = forces
-        self.iterations = iterations
-        self.converged = converged
-        self.contact = contact
-        self.tangential = tangential
-        self.moments = moments
-
-    def __repr__(self):
-        return (f"Solution(samples={np.shape(self.forces)[0] if np.ndim(self.forces) > 1 else 1}, "
-                f"converged={bool(np.all(self.converged))})")
-
-
-def compression(model: SpringModel, u) -> np.ndarray:
-    """Compression g_e = delta0_e + b_e . u of every element [m], shape (..., n).
-
-    docs/model.md section 4: element e is in contact when g_e > 0.
-    """
-    return model.delta0 + np.asarray(u, dtype=float) @ model.b.T
-
-
-def forces_from_compression(model: SpringModel, g, out=None) -> np.ndarray:
-    """f_e = k_e [g_e]_+ [N] (docs/model.md section 4), shape of g; in place if ``out is g``."""
-    f = np.maximum(g, 0.0, out=out)
-    f *= model.k
-    return f
-
-
-def normal_forces(model: SpringModel, u) -> np.ndarray:
-    """f_e = k_e [delta0_e + b_e . u]_+ [N] (the element law's force for a nonlinear law),
-    shape (..., n)."""
-    if not model.is_linear:
-        return model.element.force(compression(model, u))
-    return forces_from_compression(model, compression(model, u))
-
-
-def shear_forces(model: SpringModel, u) -> np.ndarray:
-    """Shear force on the arm s_e = k_s,e (I3 - n_e n_e^T) B_e u [N], shape (..., n, 3)."""
-    return model.shear_forces(u)
-
-
-def energy(model: SpringModel, u, wrench) -> np.ndarray:
-    """Pi(u) [J] for displacement(s) u and applied wrench(es) W."""
-    u = np.asarray(u, dtype=float)
-    g = compression(model, u)
-    r = np.asarray(wrench, dtype=float) + model.W_pre
-    if model.is_linear:
-        gp = np.maximum(g, 0.0)
-        elastic = 0.5 * np.sum(model.k * gp * gp, axis=-1)
-    else:
-        elastic = np.sum(model.element.energy(g), axis=-1)
-    return (elastic
-            + 0.5 * np.einsum("...i,ij,...j->...", u, model.K_s, u)
-            - np.sum(r * u, axis=-1))
-
-
-
 # --------------------------------------------------------------------------- the spring system
 def _exact_step(k, g, h, a0, q) -> float:
     """Exact minimiser alpha >= 0 of Pi(u + alpha d).
@@ -560,11 +474,124 @@ def _per_sample_friction(model, W) -> Solution:
                     moments=Pe[:, :, 3:6].copy() if d == 6 else None)
 
 
-def __getattr__(name):
-    """``Solver`` lives in :mod:`.single_solver` (which imports this module); it is
-    importable from here as well."""
-    if name == "Solver":
-        from .single_solver import Solver
+class Solver:
+    """Single-sample solver for control loops, warm-started from the previous call.
 
-        return Solver
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    Keeps the contact set of the last call and a cache of the factorisation of
+    every contact set met, so a call usually costs one 6x6 product and one
+    consistency check. It runs the same kernel as :func:`solve`, on one row.
+
+    Parameters
+    ----------
+    model : SpringModel or CoupledModel
+    max_iterations : int
+        Most linear solves per call.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from phri_spring.physics.geometry import cuff_geometry
+    >>> from phri_spring.physics.model import build_model
+    >>> model = build_model(cuff_geometry([0.0], 0.045, 0.025, 75.0, 35.0, 7), 50e3, 1e6)
+    >>> solver = Solver(model)
+    >>> f = solver.forces([0.0, 0.0, 20.0, 0.0, 0.0, 0.0])    # 20 N along z, cuff frame
+    >>> f.shape, solver.last_converged
+    ((7,), True)
+    >>> bool(np.allclose(f, solve(model, [0.0, 0.0, 20.0, 0, 0, 0]).forces))
+    True
+    """
+
+    def __init__(self, model, max_iterations: int = 100):
+        self.model = model
+        self.max_iterations = int(max_iterations)
+        self.cache = FactorCache()
+        self._direct = hasattr(model, "solve_wrenches")
+        self._system = None if self._direct else make_system(model, self.cache)
+        self._linear = model.is_linear
+        self._wpre = model.W_pre
+        self._S = np.ones((1, model.n), dtype=bool)
+        self._keys = set_keys(self._S)
+        self._q = None
+        self._f_nl = None      # a nonlinear law's forces of the last call, from its iteration
+        self.last_iterations = 0
+        self.last_converged = True
+
+    def displacement(self, wrench) -> np.ndarray:
+        """Cuff displacement u (6,) [m, rad] for one wrench W (6,) [N, N*m] in the cuff frame."""
+        if getattr(self.model, "friction_coefficient", None) is not None:
+            return self._friction_step(wrench)
+        if self._direct:
+            return self._direct_step(wrench)
+        r = np.asarray(wrench, dtype=float) + self._wpre
+        size = np.abs(r).max() if r.shape == (6,) else np.nan
+        if not size <= _HUGE and not np.isfinite(size):
+            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
+        if size <= _HUGE:
+            u, q, _, its, conv = iterate(self._system, r[None], self._S, self.max_iterations,
+                                            keys=self._keys)
+            ok = bool(conv[0])
+        else:  # absurd but finite input: the result may overflow, which is not an answer
+            with np.errstate(over="ignore", invalid="ignore"):
+                u, q, _, its, conv = iterate(self._system, r[None], self._S,
+                                                self.max_iterations, keys=self._keys)
+                ok = bool(conv[0]) and bool(np.abs(u).max() <= _HUGE)
+        self._f_nl = None
+        if not self._linear:
+            q, self._f_nl = _nonlinear_finish(self.model, r[None], u, its, conv,
+                                              self.max_iterations)
+            ok = ok and bool(conv[0])
+        self.last_iterations, self.last_converged = int(its[0]), ok
+        # the next call starts from the set read off this indicator; its key must be that
+        # set's own (the kernel's keys name the set it last solved with, which can differ
+        # from q > 0 at a contact on the boundary, and a key names a cached factorisation)
+        S = q > 0
+        if (S != self._S).any():   # the usual call keeps its set, and its key
+            self._keys = set_keys(S)
+        self._S, self._q = S, q
+        return u[0]
+
+    def _direct_step(self, wrench) -> np.ndarray:
+        """One sample of a model that solves its samples itself (``solve_wrenches``)."""
+        W = np.asarray(wrench, dtype=float)
+        if W.shape != (6,) or not np.all(np.isfinite(W)):
+            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
+        u, f, its, conv, contact = self.model.solve_wrenches(W[None], self.max_iterations)
+        self.last_iterations, self.last_converged = int(its[0]), bool(conv[0])
+        self._f_nl, self._q, self._S = f, f[0], contact
+        return u[0]
+
+    def _friction_step(self, wrench) -> np.ndarray:
+        """One sample of the loading path with friction, from where the last call left it."""
+        W = np.asarray(wrench, dtype=float)
+        if W.shape != (6,) or not np.all(np.isfinite(W)):
+            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
+        sol = _solve_friction(self.model, W[None], False, self.cache)
+        self.last_iterations = int(sol.iterations[0])
+        self.last_converged = bool(sol.converged[0])
+        self._q = sol.forces[0]
+        self._S = sol.contact[:1]
+        self.last_tangential = sol.tangential[0]
+        return sol.u[0]
+
+    @property
+    def last_contact(self) -> np.ndarray:
+        """The contact set (n,) bool the last call settled on (all False if it did not converge)."""
+        if self._q is None:
+            return np.zeros(self.model.n, dtype=bool)
+        return self._S[0] & self.last_converged
+
+    def forces(self, wrench) -> np.ndarray:
+        """Normal force of every element f_e (n,) [N] for one wrench W (6,) [N, N*m].
+
+        NaN everywhere if the solver did not converge (see ``last_converged``).
+        """
+        u = self.displacement(wrench)
+        if getattr(self.model, "friction_coefficient", None) is not None:
+            return self._q.copy()
+        if self._f_nl is not None:
+            f = self._f_nl[0].copy()
+        else:
+            f = self._system.forces(self._q, u=u[None])[0]
+        if not self.last_converged:
+            f[:] = np.nan
+        return f

@@ -192,7 +192,7 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
 
         return hyper_coupled_model(
             cfg, lambda c, lv: _linear_coupled_model(c, cache_dir=cache_dir, level=lv),
-            cache_dir=cache_dir, level=level)
+            continuum_modulus(cfg), cache_dir=cache_dir, level=level)
     return _linear_coupled_model(cfg, cache_dir=cache_dir, level=level)
 
 

@@ -60,7 +60,7 @@ def _check(cfg: Config, E) -> None:
                           key="tissue.continuum.spread")
 
 
-def hyper_coupled_model(cfg: Config, linear_builder, *, cache_dir=None, level=None):
+def hyper_coupled_model(cfg: Config, linear_builder, modulus, *, cache_dir=None, level=None):
     """The reduced neo-Hookean coupled model of a config.
 
     Parameters
@@ -69,6 +69,8 @@ def hyper_coupled_model(cfg: Config, linear_builder, *, cache_dir=None, level=No
         ``tissue.continuum.law: neo_hookean``.
     linear_builder : callable(cfg, level) -> CoupledModel
         Builds the linear coupled model of the config at a mesh level (None: the default).
+    modulus : array_like, shape (n,)
+        The continuum's Young's modulus per patch [Pa] (``common.continuum_modulus``).
     cache_dir : path, optional
         Where the FE's matrices and the identification are cached.
     level : int, optional
@@ -83,10 +85,8 @@ def hyper_coupled_model(cfg: Config, linear_builder, *, cache_dir=None, level=No
     """
     from ..io import hyper_reduction as store
     from ..physics.coupled_hyper import HyperCoupledModel
-    from .common import continuum_modulus
-
     geom = cfg.geometry()
-    E = continuum_modulus(cfg, geom)
+    E = np.asarray(modulus, float)
     _check(cfg, E)
     linear = linear_builder(cfg, level)
     id_level = store.IDENTIFY_LEVEL
