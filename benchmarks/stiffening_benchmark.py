@@ -4,8 +4,8 @@
         [--out benchmarks/STIFFENING.md]
 
 Two one-hour 100 Hz logs (360,000 samples each): a smooth random wrench
-(``phri_spring.synthetic.wrench.smooth_random_log``, seed 7, scaled by 3: up to about
-40 N) and ``examples/wrench_log.csv`` (the paper's loading, with lift-off at every 55.6 N
+(``phri_spring.synthetic.wrench.smooth_random_log``, seed 7, scaled by 3: |F| 160 N at
+the median and up to 300 N, moments up to 6.8 N*m, far beyond the paper's loads) and ``examples/wrench_log.csv`` (the paper's loading, with lift-off at every 55.6 N
 step) repeated. For the Harmony and the human preset's compliant arm, the linear law and
 the exponential law at several stiffening rates beta, it times ``solve`` on the whole log
 in this process, the two laws taking turns (linear, exponential, linear, ...), and reports
