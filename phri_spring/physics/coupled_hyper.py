@@ -18,7 +18,7 @@ from functools import cached_property
 import numpy as np
 
 from .coupled import CoupledModel
-from .hyper_reduced import HyperReduction, linear_bonded, solve_poses
+from .hyper_reduced import HyperReduction, _low, features, linear_bonded, solve_poses
 from .model import OnGeometry, field_unit
 
 __all__ = ["HyperCoupledModel", "CONTINUUM_LAWS"]
@@ -96,8 +96,7 @@ class HyperCoupledModel(OnGeometry):
         (m,), converged (m,), contact (m, n) bool). Not converged rows: NaN forces."""
         W = np.atleast_2d(np.asarray(W, float))
         red = self.reduction
-        u0 = (W - red.wrench[0]) @ self._start_map
-        u, phi, its, conv = solve_poses(red, self.H, W, u0,
+        u, phi, its, conv = solve_poses(red, self.H, W, red.start(self.H, W, self._start_map),
                                         max_iterations=max(1, int(max_iterations)))
         forces = self.f0 + u @ self.N.T + phi @ red.normal
         if not conv.all():
@@ -106,8 +105,8 @@ class HyperCoupledModel(OnGeometry):
 
     @cached_property
     def _start_map(self) -> np.ndarray:
-        """J0^-T: Newton's start u0 = (W - dR(0)) @ J0^-T, J0 the reduced tangent at u = 0."""
-        return np.linalg.inv(self.tangent_stiffness(np.zeros(6))).T
+        """Newton's start map, computed once per model (:meth:`HyperReduction.start_map`)."""
+        return self.reduction.start_map(self.H)
 
     def patch_forces(self, u, contact=None) -> np.ndarray:
         """Patch forces P (m, n, 6) in local axes [N, N*m] at poses u (m, 6): normal, axial,
@@ -115,8 +114,6 @@ class HyperCoupledModel(OnGeometry):
         every patch is bonded)."""
         u = np.atleast_2d(np.asarray(u, float))
         red = self.reduction
-        from .hyper_reduced import features
-
         P = self.P0 + u @ self.G.T + features(u / red.scale) @ red.patch
         return P.reshape(len(u), self.n, 6)
 
@@ -126,8 +123,5 @@ class HyperCoupledModel(OnGeometry):
 
     def tangent_stiffness(self, u, contact=None) -> np.ndarray:
         """dW/du (6, 6) at the pose u (6,) [N/m, N/rad; N*m/m, N*m/rad] (``contact`` unused)."""
-        from .hyper_reduced import _low
-
         red = self.reduction
-        x = np.asarray(u, float).reshape(1, 6) / red.scale
-        return self.H + (_low(x) @ red.jacobian_map).reshape(6, 6) / red.scale
+        return red.jacobian(self.H, _low(np.asarray(u, float).reshape(1, 6) / red.scale))[0]

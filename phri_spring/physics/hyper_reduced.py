@@ -140,11 +140,20 @@ class HyperReduction:
         components, columns: x's), the derivative of the cubic as a quadratic."""
         return np.einsum("lik,kj->ijl", _DMAPS, self.wrench).reshape(_LOW, 36)
 
-    def start(self, H, W) -> np.ndarray:
+    def jacobian(self, H, low) -> np.ndarray:
+        """d(H u + dR(u / s))/du (m, 6, 6) at the poses whose low monomials (:func:`_low`
+        of x = u / s) are ``low`` (m, _LOW): the reduced model's tangent stiffness."""
+        return H + (low @ self.jacobian_map).reshape(-1, 6, 6) / self.scale
+
+    def start_map(self, H) -> np.ndarray:
+        """J0^-T (6, 6), J0 the tangent at u = 0: :meth:`start` with it precomputed."""
+        return np.linalg.inv(self.jacobian(np.asarray(H, float), _low(np.zeros((1, 6))))[0]).T
+
+    def start(self, H, W, start_map=None) -> np.ndarray:
         """Newton's starting poses (m, 6) for wrenches W (m, 6): the reduced model's
-        tangent at u = 0, J0 u = W - dR(0)."""
-        J0 = np.asarray(H, float) + self.jacobian_map[0].reshape(6, 6) / self.scale
-        return np.linalg.solve(J0, (np.atleast_2d(W) - self.wrench[0]).T).T
+        tangent at u = 0, J0 u = W - dR(0) (``start_map``: :meth:`start_map` of H)."""
+        J0_T = self.start_map(H) if start_map is None else start_map
+        return (np.atleast_2d(W) - self.wrench[0]) @ J0_T
 
     def arrays(self) -> dict:
         """Every array, for saving (``info`` separately)."""
@@ -210,7 +219,7 @@ def fit_reduction(U, R, F, P, linear, max_force: float, max_moment: float,
     return HyperReduction(scale=scale, range_map=linear["H"] / D[:, None], info=out, **coef)
 
 
-def identify(cuff, linear, *, max_force: float, max_moment: float, rays: int = 64,
+def identify(cuff, linear, *, max_force: float, max_moment: float, rays: int,
              fractions=(1 / 3, 2 / 3, 1.0), seed: int = 0, progress=None) -> HyperReduction:
     """Identify the corrections with the hyperelastic FE (:mod:`.fe_hyper`): the samples of
     :func:`identification_samples`, fitted by :func:`fit_reduction`."""
@@ -221,7 +230,7 @@ def identify(cuff, linear, *, max_force: float, max_moment: float, rays: int = 6
 
 
 def identification_samples(cuff, linear, *, max_force: float, max_moment: float,
-                           rays: int = 64, fractions=(1 / 3, 2 / 3, 1.0), seed: int = 0,
+                           rays: int, fractions=(1 / 3, 2 / 3, 1.0), seed: int = 0,
                            progress=None):
     """The FE's answers at the identification poses: U, R, F, P (as :func:`fit_reduction`
     takes them) and an info dict.
@@ -242,9 +251,8 @@ def identification_samples(cuff, linear, *, max_force: float, max_moment: float,
     from . import fe_hyper as fh
 
     ends = identification_poses(linear["H"], max_force, max_moment, rays, seed)
-    fh.patch_forces(cuff, np.zeros(6), preload=True)
+    rows, its = [fh.patch_forces(cuff, np.zeros(6), preload=True)], 0     # the preload
     start = cuff.checkpoint()
-    rows, its = [fh.patch_forces(cuff, np.zeros(6), preload=True)], 0
     for i, end in enumerate(ends):
         cuff.restore(start)
         for frac in fractions:
@@ -294,7 +302,7 @@ def solve_poses(red: HyperReduction, H, W, u0, *, tol: float = 1e-9,
     its = np.zeros(m, dtype=np.int64)
     conv = np.zeros(m, dtype=bool)
     phi_out = np.full((m, len(EXPONENTS)), np.nan)
-    inv_s, HT, D = 1.0 / red.scale, np.asarray(H, float).T, red.jacobian_map
+    inv_s, HT = 1.0 / red.scale, np.asarray(H, float).T
     rows = np.arange(m)
     # a step that does not lower the residual is halved (from the pose it started at)
     # before the next Newton step is taken: Newton from the linear answer rarely needs it
@@ -317,14 +325,13 @@ def solve_poses(red: HyperReduction, H, W, u0, *, tol: float = 1e-9,
                 wr = rows[worse]
                 t[wr] *= 0.5
                 u[wr] = prev_u[wr] - t[wr, None] * prev_step[wr]
-            new = ~done & ~worse & np.isfinite(size)
+            new = ~done & ~worse         # the residual fell (so it is finite)
             keep = ~done & (new | (t[rows] > 1e-6))
             if not new.any() and not keep.any():
                 break
             if new.any():
                 nr = rows[new]
-                J = H + (low[new] @ D).reshape(-1, 6, 6) * inv_s
-                step = np.linalg.solve(J, g[new][:, :, None])[..., 0]
+                step = np.linalg.solve(red.jacobian(H, low[new]), g[new][:, :, None])[..., 0]
                 prev_u[nr], prev_step[nr], prev_size[nr], t[nr] = ur[new], step, size[new], 1.0
                 u[nr] = ur[new] - step
             its[rows[keep]] += 1
@@ -338,7 +345,7 @@ def solve_poses(red: HyperReduction, H, W, u0, *, tol: float = 1e-9,
 def _solve_one(red, H, w, u, tol, max_iterations, arm):
     """:func:`solve_poses` for one row: the same iteration without the row bookkeeping
     (a control loop's call)."""
-    inv_s, D, C = 1.0 / red.scale, red.jacobian_map, red.wrench
+    inv_s, C = 1.0 / red.scale, red.wrench
     wscale = np.array([1.0, 1.0, 1.0, 1.0 / arm, 1.0 / arm, 1.0 / arm])
     limit = tol * (1.0 + float(np.sqrt(((w * wscale) ** 2).sum())))
     prev_u, prev_step, prev_size, t = u, np.zeros(6), np.inf, 1.0
@@ -353,18 +360,15 @@ def _solve_one(red, H, w, u, tol, max_iterations, arm):
             if size <= limit:
                 ok = True
                 break
-            if not size < prev_size:                 # halve the last step
+            if not size < prev_size:       # halve the last step (also where size is NaN)
                 t *= 0.5
                 if t <= 1e-6:
                     break
                 u = prev_u - t * prev_step
-            elif np.isfinite(size):
-                J = H + (low[0] @ D).reshape(6, 6) * inv_s
-                step = np.linalg.solve(J, g)
+            else:
+                step = np.linalg.solve(red.jacobian(H, low)[0], g)
                 prev_u, prev_step, prev_size, t = u, step, size, 1.0
                 u = u - step
-            else:
-                break
             its += 1
     if ok:
         ok = bool(red.range_ratio(u[None])[0] <= 1.0 + 1e-9)
