@@ -15,8 +15,7 @@ import numpy as np
 
 from ..errors import ConfigError, ConvergenceError
 from ..physics import hyper_reduced as hr
-from .atomic import atomic_file
-from .surface_stiffness import cache_key, default_cache_dir
+from .surface_stiffness import _gap, cache_key, default_cache_dir, read_cache_entry, write_cache_entry
 
 __all__ = ["IDENTIFY_LEVEL", "IDENTIFY_RAYS", "REDUCTION_FORMAT_VERSION", "reduction_key",
            "load_or_identify"]
@@ -46,36 +45,6 @@ def reduction_key(geometry, thickness, young_modulus, poisson_ratio, strap, *, m
         h.update(np.float64(value).tobytes())
     h.update(f"rays={int(rays)}".encode())
     return h.hexdigest()
-
-
-def _read(path: Path, key: str, n: int):
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            if str(z["key"]) != key:
-                return None
-            arrays = {k: np.array(z[k], dtype=float) for k in
-                      ("scale", "wrench", "normal", "patch", "range_map")}
-            info = {k[5:]: z[k].item() for k in z.files if k.startswith("info_")}
-    except Exception:  # noqa: BLE001 - any unreadable entry is identified again, never an error
-        return None
-    K = len(hr.EXPONENTS)
-    shapes = dict(scale=(6,), wrench=(K, 6), normal=(K, n), patch=(K, 6 * n), range_map=(6, 6))
-    if any(arrays[k].shape != s or not np.isfinite(arrays[k]).all() for k, s in shapes.items()):
-        return None
-    return hr.HyperReduction(info=info, **arrays)
-
-
-def _write(path: Path, key: str, red) -> str | None:
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        meta = {f"info_{k}": np.asarray(v) for k, v in red.info.items()
-                if isinstance(v, (int, float, str, bool))}
-        with atomic_file(path) as tmp:
-            with open(tmp, "wb") as fh:
-                np.savez(fh, key=np.asarray(key), **red.arrays(), **meta)
-    except OSError as exc:
-        return f"{exc.strerror or exc} ({path})"
-    return None
 
 
 def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, *,
@@ -117,7 +86,6 @@ def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, 
         The FE did not converge at an identification pose (a range too large for the cuff).
     """
     from ..physics import fe_hyper as fh
-    from ..physics.fe_mesh import DEFAULT_PATCH_GAP
 
     t0 = time.perf_counter()
     key = reduction_key(geometry, thickness, young_modulus, poisson_ratio, strap,
@@ -125,14 +93,15 @@ def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, 
                         patch_gap=patch_gap)
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     path = folder / f"neo-hookean-{key[:32]}.npz"
-    red = _read(path, key, geometry.n)
+    K, n = len(hr.EXPONENTS), geometry.n
+    hit = read_cache_entry(path, key, dict(scale=(6,), wrench=(K, 6), normal=(K, n),
+                                           patch=(K, 6 * n), range_map=(6, 6)))
+    red = None if hit is None else hr.HyperReduction(info=hit[1], **hit[0])
     if red is not None:
         red.info.update(source="cache", cache_error=None)
     else:
         cuff = fh.build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio,
-                                   level=level, delta=linear.delta,
-                                   patch_gap=DEFAULT_PATCH_GAP if patch_gap is None
-                                   else patch_gap)
+                                   level=level, delta=linear.delta, patch_gap=_gap(patch_gap))
         try:
             red = hr.identify(cuff, hr.linear_bonded(linear), max_force=max_force,
                               max_moment=max_moment, rays=rays, progress=progress)
@@ -143,7 +112,7 @@ def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, 
                               f"tissue.continuum.max_force / max_moment",
                               key="tissue.continuum.max_force") from None
         red.info["seconds_identify"] = time.perf_counter() - t0
-        error = _write(path, key, red)
+        error = write_cache_entry(path, key, red.arrays(), red.info)
         red.info.update(source="identified", cache_error=error)
     red.info.update(path=str(path), seconds=time.perf_counter() - t0)
     return red

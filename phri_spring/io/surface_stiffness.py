@@ -81,32 +81,36 @@ def cache_key(geometry, thickness, poisson_ratio, *, level=fe_tissue.DEFAULT_LEV
     return h.hexdigest()
 
 
-def _read_cache(path: Path, key: str, n: int):
-    """(K1, N1, info) from a cache file, or None when it is missing, stale or corrupt."""
+def read_cache_entry(path: Path, key: str, shapes: dict):
+    """(arrays, info) of a cache file written by :func:`write_cache_entry`, or None when it
+    is missing, stale (another key), corrupt, or an array is not finite or not of its shape.
+
+    ``shapes`` maps each array's name to its expected shape; ``info`` holds the scalars.
+    """
     try:
         with np.load(path, allow_pickle=False) as z:
             if str(z["key"]) != key:
                 return None
-            K1 = np.array(z["K"], dtype=float)
-            N1 = np.array(z["N"], dtype=float)
-            meta = {k[5:]: z[k].item() for k in z.files if k.startswith("info_")}
+            arrays = {name: np.array(z[name], dtype=float) for name in shapes}
+            info = {k[5:]: z[k].item() for k in z.files if k.startswith("info_")}
     except Exception:  # noqa: BLE001 - any unreadable entry is rebuilt, never an error
         return None
-    if (K1.shape != (6 * n, 6 * n) or N1.shape != (n, 6 * n)
-            or not np.all(np.isfinite(K1)) or not np.all(np.isfinite(N1))):
+    if any(arrays[k].shape != tuple(s) or not np.all(np.isfinite(arrays[k]))
+           for k, s in shapes.items()):
         return None
-    return K1, N1, meta
+    return arrays, info
 
 
-def _write_cache(path: Path, key: str, K1, N1, info) -> str | None:
-    """Write atomically; return None, or the reason it could not be written."""
+def write_cache_entry(path: Path, key: str, arrays: dict, info: dict) -> str | None:
+    """Write ``key``, the arrays and the scalars of ``info`` atomically; return None, or the
+    reason the file could not be written."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         meta = {f"info_{k}": np.asarray(v) for k, v in info.items()
                 if isinstance(v, (int, float, str, bool))}
         with atomic_file(path) as tmp:
             with open(tmp, "wb") as fh:
-                np.savez(fh, key=np.asarray(key), K=K1, N=N1, **meta)
+                np.savez(fh, key=np.asarray(key), **arrays, **meta)
     except OSError as exc:
         return f"{exc.strerror or exc} ({path})"
     return None
@@ -167,10 +171,11 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
                     length_factor=length_factor, ends=ends, patch_gap=gap)
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     path = folder / f"surface-stiffness-{key[:32]}.npz"
-    hit = _read_cache(path, key, n)
+    hit = read_cache_entry(path, key, {"K": (6 * n, 6 * n), "N": (n, 6 * n)})
     E = float(young_modulus)
     if hit is not None:
-        K1, N1, meta = hit
+        arrays, meta = hit
+        K1, N1 = arrays["K"], arrays["N"]
         info = dict(meta, source="cache", cache_error=None)
     else:
         ops = fe_tissue.condensed_surface_operators(geometry, thickness, 1.0, poisson_ratio,
@@ -178,7 +183,7 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
                                                     ends=ends, patch_gap=gap)
         K1, N1 = ops.K, ops.N
         info = dict(ops.info, source="built")
-        info["cache_error"] = _write_cache(path, key, K1, N1, ops.info)
+        info["cache_error"] = write_cache_entry(path, key, {"K": K1, "N": N1}, ops.info)
     info.update(path=str(path), key=key, seconds=time.perf_counter() - t0)
     return fe_tissue.SurfaceOperators(K=K1 * E, N=N1 * E, info=info)
 
