@@ -94,15 +94,17 @@ def arm_law_text(cfg, arm: str) -> str:
     if arm == "rigid":
         return "no tissue (cuff springs only)"
     if arm == "coupled":
+        notes = []
         if getattr(cfg, "continuum_law", "linear") == "neo_hookean":
-            return ("neo-Hookean continuum (reduced model, rigid bonded cuff; tissue.stiffening "
-                    "is used by the compliant arm only)" if is_nonlinear(cfg) else
-                    "neo-Hookean continuum (reduced model, rigid bonded cuff)")
-        if not is_nonlinear(cfg):
-            return "linear continuum"
-        keys = _law_keys(cfg)
-        verb = "is" if len(keys) == 1 else "are"
-        return f"linear continuum ({' and '.join(keys)} {verb} used by the compliant arm only)"
+            name = "neo-Hookean continuum"
+            notes.append("reduced model, rigid bonded cuff")
+        else:
+            name = "linear continuum"
+        if is_nonlinear(cfg):
+            keys = _law_keys(cfg)
+            verb = "is" if len(keys) == 1 else "are"
+            notes.append(f"{' and '.join(keys)} {verb} used by the compliant arm only")
+        return name + (f" ({'; '.join(notes)})" if notes else "")
     return law_text(cfg)
 
 
