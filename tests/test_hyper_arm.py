@@ -139,6 +139,14 @@ def test_simulate_cli_runs_the_neo_hookean_arm(identified, tmp_path, monkeypatch
     assert len(df) == len(t) and np.isfinite(df.filter(like="_N").to_numpy()).all()
 
 
+def _per_patch_moduli(raw):
+    """E converted per patch from indenter values that differ (needs the fe extra)."""
+    pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
+    del raw["tissue"]["continuum"]["young_modulus"]
+    raw["tissue"]["stiffness"] = {"per_angle": [300.0, 350.0, 400.0, 450.0, 500.0]}
+    raw["tissue"]["continuum"]["spread"] = "per_patch"
+
+
 @pytest.mark.parametrize("edit, key", [
     (lambda r: r["cuff"].update(stiffness=1e5), "cuff.stiffness"),
     (lambda r: r.setdefault("interface", {}).update(friction_coefficient=0.5),
@@ -149,6 +157,7 @@ def test_simulate_cli_runs_the_neo_hookean_arm(identified, tmp_path, monkeypatch
      "tissue.continuum.max_moment"),
     (lambda r: r["tissue"]["continuum"].update(surface_stiffness="k.npz"),
      "tissue.continuum.surface_stiffness"),
+    (_per_patch_moduli, "tissue.continuum.spread"),
 ])
 def test_configs_it_is_not_identified_for_are_one_line(tmp_path, edit, key):
     raw = _raw()
