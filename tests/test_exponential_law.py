@@ -338,3 +338,49 @@ def test_single_sample_solver_matches_the_batch_with_a_stiffening_law():
     single = np.array([one.forces(w) for w in W])
     np.testing.assert_allclose(single, batch.forces, rtol=0,
                                atol=1e-9 * np.abs(batch.forces).max())
+
+
+def _stepped_log(m, seed):
+    """Plateaus at the paper's load levels in random directions, with sensor noise: lift-off
+    at every large step, and steps between neighbours the interpolation cannot follow."""
+    rng = np.random.default_rng(seed)
+    levels = rng.choice([0.0, 11.1, 33.4, 55.6, 120.0], size=m // 40 + 1)
+    dirs = rng.normal(size=(len(levels), 6))
+    dirs[:, 3:] *= 0.04
+    dirs /= np.linalg.norm(dirs[:, :3], axis=1, keepdims=True)
+    W = np.repeat(levels[:, None] * dirs, 40, axis=0)[:m]
+    return W + rng.normal(0.0, [0.3, 0.3, 0.3, 0.01, 0.01, 0.01], size=(m, 6))
+
+
+@pytest.mark.parametrize("m", [31, 33, 1001, 2603])
+def test_neighbour_warm_start_reaches_the_cold_starts_equilibrium(m):
+    """A log's samples start from their solved neighbours (docs/model.md 11.2): the start
+    moves the path, not the answer. Against every sample started from the tangent model
+    (warm_start=False), on smooth and stepped logs of lengths that leave a short last
+    segment and recurse: forces agree to 1e-8 of the peak, the same contact, equilibrium."""
+    model = _harmony_exponential(300.0, kc_scale=0.5)
+    for W in (_random_wrenches(m, 4.0, 11), _stepped_log(m, 12)):
+        warm = solve(model, W)
+        cold = solve(model, W, warm_start=False)
+        assert warm.converged.all() and cold.converged.all()
+        peak = np.abs(cold.forces).max()
+        np.testing.assert_allclose(warm.forces, cold.forces, rtol=0, atol=1e-8 * peak)
+        np.testing.assert_array_equal(warm.contact, cold.forces > 0)
+        res = warm.forces @ model.b + warm.u @ model.K_s - (W + model.W_pre)
+        assert np.abs(res).max() <= 1e-8 * peak
+
+
+def test_a_sample_that_does_not_converge_is_no_start_for_its_neighbours():
+    """An absurd sample (1e200 N: its forces overflow) on a row solved first is flagged; the
+    samples next to it start from the tangent model instead and are solved as without it."""
+    model = _harmony_exponential(100.0)
+    W = _random_wrenches(400, 3.0, 13)
+    bad = W.copy()
+    bad[64] = [1e200, 0.0, 0.0, 0.0, 0.0, 0.0]      # a row of the first, strided pass
+    sol = solve(model, bad)
+    ref = solve(model, W, warm_start=False)
+    assert not sol.converged[64] and np.isnan(sol.forces[64]).all()
+    others = np.arange(400) != 64
+    assert sol.converged[others].all()
+    peak = np.abs(ref.forces).max()
+    np.testing.assert_allclose(sol.forces[others], ref.forces[others], rtol=0, atol=1e-8 * peak)

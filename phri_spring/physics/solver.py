@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .spd6 import spd_solve_batched as _spd_solve_batched
+from .spring_newton import solve_newton, solve_newton_warm
 from .solution import Solution
 from .spring_outputs import (compression, energy, forces_from_compression, normal_forces,
                              shear_forces)
@@ -201,8 +202,6 @@ def _nonlinear_finish(model, r, u, its, conv, max_iterations):
     """For a spring model with a nonlinear law: Newton from the linear model's answer u, in
     place (docs/model.md section 11); returns the compression g (m, n) and the element
     forces (m, n) the iteration converged to."""
-    from .spring_newton import solve_newton
-
     f = np.empty((len(r), model.n))
     u[:], itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations,
                                         forces_out=f)
@@ -296,6 +295,9 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     conv = np.empty(m, dtype=bool)
     contact = np.empty((m, n), dtype=bool)
     block = max(256, _BLOCK_ENTRIES // max(n, 1))
+    # a nonlinear law without history: each sample may start from its solved neighbours
+    warm_newton = (not linear and warm_start and initial_active is None
+                   and not model.element.law.has_state)
     carry = None  # warm start across blocks: the last solved sample's contact set
     with np.errstate(over="ignore", invalid="ignore"):
         for s in range(0, m, block):
@@ -303,7 +305,11 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
             rb = r[s:e]
             mb = e - s
             qb = forces[s:e]  # indicators are computed in place, then turned into forces
-            if initial_active is not None:
+            if warm_newton:
+                ub, fb, itb, cb = solve_newton_warm(model, system, rb, carry, max_iterations)
+                np.matmul(ub, model.bT, out=qb)
+                qb += model.delta0
+            elif initial_active is not None:
                 S0 = np.broadcast_to(np.asarray(initial_active, dtype=bool), (m, n))[s:e]
                 ub, qb, _, itb, cb = iterate(system, rb, S0, max_iterations, q_out=qb)
             elif warm_start:
@@ -311,7 +317,7 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
             else:
                 S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
                 ub, qb, _, itb, cb = iterate(system, rb, S0, max_iterations, q_out=qb)
-            if not linear:
+            if not linear and not warm_newton:
                 qb[:], fb = _nonlinear_finish(model, rb, ub, itb, cb, max_iterations)
             u[s:e], its[s:e], conv[s:e] = ub, itb, cb
             # the settled set, read off the indicator before it becomes the forces in place

@@ -17,15 +17,24 @@ equations, sum_e f_e b_e + K_s u - r, is below 1e-10 of the forces in them.
 
 Every row of a block is iterated at once. A law with history (``has_state``)
 is solved one sample after another, its state advanced after each.
+
+Starts. :func:`solve_newton` starts from given displacements (the solver passes the
+answer of the linear model tangent to the law at the preload). On a log,
+:func:`solve_newton_warm` solves every :data:`WARM_STRIDE`-th sample that way first
+and starts each sample between from its solved neighbours: displacements, tissue
+shares and tangents interpolated between them, plus one linearised step for the part
+of its wrench the interpolation misses. The start moves only the path, never the
+answer (Pi has one minimiser and every row is held to the same residual test).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .active_set import solve_warm
 from .spd6 import spd_solve_batched
 
-__all__ = ["solve_newton", "NEWTON_ITERATIONS", "RESIDUAL_RTOL"]
+__all__ = ["solve_newton", "solve_newton_warm", "NEWTON_ITERATIONS", "RESIDUAL_RTOL"]
 
 #: most Newton steps per sample (on top of the linear solve that starts it)
 NEWTON_ITERATIONS = 60
@@ -57,7 +66,7 @@ def _state(model, u, r):
 MIXED_ITERATIONS = 12
 
 
-def _mixed_rows(model, r, u):
+def _mixed_rows(model, r, u, dt0=None):
     """Undamped Newton on displacements and tissue shares together, in place on u (m, 6).
 
     The series element's split d = d_t + F(d_t) c is not solved exactly at every step
@@ -92,10 +101,13 @@ def _mixed_rows(model, r, u):
     g += model.delta0
     # the tissue shares linearised about the preload (docs/model.md 11.1): exact at zero
     # wrench; an element out of contact has d_t = 0, so F = 0 and its split residual h = d
-    _, dt_pre, kt_pre = model.newton_start()
-    dt = g - model.delta0
-    dt /= 1.0 + kt_pre * c
-    dt += dt_pre
+    if dt0 is None:
+        _, dt_pre, kt_pre = model.newton_start()
+        dt = g - model.delta0
+        dt /= 1.0 + kt_pre * c
+        dt += dt_pre
+    else:
+        dt = np.array(dt0, dtype=float)
     np.minimum(dt, g, out=dt)
     np.maximum(dt, 0.0, out=dt)
     idx = np.arange(m)
@@ -199,8 +211,8 @@ _MIXED_ROWS = 2048
 
 def _solve_rows(model, r, u, max_iterations, forces_out=None):
     """The mixed iteration on every row, the damped one from u on the rows it leaves."""
-    u_start = u.copy()
     m = len(r)
+    u_start = u.copy()
     conv = np.empty(m, dtype=bool)
     its = np.empty(m, dtype=np.int64)
     f = np.empty((m, model.n)) if forces_out is None else forces_out
@@ -263,3 +275,121 @@ def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state
     if forces_out is not None:
         forces_out[...] = model.element.force(model.delta0 + u @ model.bT)
     return u, its, conv, state
+
+
+#: every WARM_STRIDE-th row of a log is solved first; the rows between start from them
+WARM_STRIDE = 8
+
+
+def _neighbour_start(model, r, idx, us, fs, k0, k1, rows_per_segment):
+    """Starts of the rows between solved rows idx[k] and idx[k + 1], k0 <= k < k1.
+
+    Segments k0..k1-1 each hold ``rows_per_segment`` rows, evenly spaced between their two
+    solved ends (segment-major order). Displacements and tissue shares are interpolated
+    between the ends; the part of the row's wrench the interpolation misses (noise, a
+    step) is added through the tangent interpolated the same way: one Newton step of the
+    linearised equilibrium and split, so a row on a smooth stretch of a log starts within
+    the curvature of the law of its answer.
+    """
+    el = model.element
+    sl = slice(k0, k1 + 1)
+    dts = el.law.compression_at(fs[sl])                     # the tissue's share of each force
+    kts = el._with_cuff(el.law.tangent(dts)) * (fs[sl] > 0.0)   # series tangent, 0 where open
+    span = idx[k0 + 1] - idx[k0]
+    w = (np.arange(1, rows_per_segment + 1) / span)[None, :, None]
+
+    def between(a):
+        """(segments * rows_per_segment, columns): a interpolated along each segment."""
+        lo = a[:-1, None, :]
+        out = (a[1:, None, :] - lo) * w
+        out += lo
+        return out.reshape(-1, a.shape[1])
+
+    rows = (idx[k0:k1, None] + np.arange(1, rows_per_segment + 1)).ravel()
+    u0, dt0, kt = between(us[sl]), between(dts), between(kts)
+    dr = r[rows] - between(r[idx[sl]])
+    H = model.bb.T @ kt.T
+    H += model.K_s.reshape(36, 1)
+    du = spd_solve_batched(H, dr)
+    u0 += du
+    dg = du @ model.bT
+    # the share takes the tissue's part of the extra compression: dg (1 - c k_s)
+    kt *= dg
+    kt *= el._c_cuff
+    dg -= kt
+    dt0 += dg
+    np.minimum(dt0, model.delta0 + u0 @ model.bT, out=dt0)
+    np.maximum(dt0, 0.0, out=dt0)
+    return rows, u0, dt0
+
+
+def _cold(model, system, r, carry, max_iterations):
+    """Rows started from the tangent model's answer (its active set, then Newton)."""
+    u, _, its, conv = solve_warm(system, r, carry, max_iterations)
+    f = np.empty((len(r), model.n))
+    u, itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations, forces_out=f)
+    return u, f, its + itn, conv & conv_n
+
+
+def solve_newton_warm(model, system, r, carry, max_iterations: int):
+    """Equilibria of a log of right-hand sides r (m, 6) with a neighbour warm start.
+
+    Rows 0, WARM_STRIDE, 2 WARM_STRIDE, ... and the last are solved first (by this
+    function again, down to short logs, which start from the tangent model's answer:
+    its active set by :func:`~phri_spring.physics.active_set.solve_warm` on
+    ``system``, then :func:`solve_newton`). Every other row starts from its two solved
+    neighbours (:func:`_neighbour_start`), chunk by chunk so the temporaries stay in
+    cache; rows the mixed iteration leaves go to the damped Newton from that start;
+    rows next to a neighbour that did not converge start from the tangent model.
+
+    Returns
+    -------
+    u (m, 6), forces (m, n), iterations (m,), converged (m,)
+        ``iterations`` counts the linear solves of the start (rows started from the
+        tangent model) and the Newton steps.
+    """
+    m, n = len(r), model.n
+    if m < 4 * WARM_STRIDE:
+        return _cold(model, system, r, carry, max_iterations)
+    idx = np.arange(0, m, WARM_STRIDE)
+    if idx[-1] != m - 1:
+        idx = np.append(idx, m - 1)
+    us, fs, its_s, conv_s = solve_newton_warm(model, system, r[idx], carry, max_iterations)
+    u = np.empty((m, 6))
+    f = np.empty((m, n))
+    its = np.empty(m, dtype=np.int64)
+    conv = np.empty(m, dtype=bool)
+    u[idx], f[idx], its[idx], conv[idx] = us, fs, its_s, conv_s
+    # the rows between, segment by segment: every segment but the last holds
+    # WARM_STRIDE - 1 rows; chunks of whole segments keep the temporaries in cache
+    n_seg = len(idx) - 1
+    per = max(1, _MIXED_ROWS * 21 // (max(n, 1) * (WARM_STRIDE - 1)))
+    groups = [(k, min(k + per, n_seg - 1), WARM_STRIDE - 1) for k in range(0, n_seg - 1, per)]
+    groups.append((n_seg - 1, n_seg, idx[-1] - idx[-2] - 1))
+    seg_ok = conv_s[:-1] & conv_s[1:]
+    cold, retry, retry_u = [], [], []
+    for k0, k1, per_seg in groups:
+        if per_seg == 0:
+            continue
+        ok = np.repeat(seg_ok[k0:k1], per_seg)
+        rows, u0, dt0 = _neighbour_start(model, r, idx, us, fs, k0, k1, per_seg)
+        if not ok.all():      # an end that did not converge is no start: those start cold
+            cold.append(rows[~ok])
+            rows, u0, dt0 = rows[ok], u0[ok], dt0[ok]
+        u_start = u0.copy()
+        cr, itr, fr = _mixed_rows(model, r[rows], u0, dt0)
+        u[rows], f[rows], its[rows], conv[rows] = u0, fr, itr, cr
+        if not cr.all():
+            retry.append(rows[~cr])
+            retry_u.append(u_start[~cr])
+    if retry:
+        rows = np.concatenate(retry)
+        ur = np.concatenate(retry_u)
+        its_r, conv_r = _newton_rows(model, r[rows], ur, max_iterations)
+        u[rows], its[rows], conv[rows] = ur, its[rows] + its_r, conv_r
+        f[rows] = model.element.force(model.delta0 + ur @ model.bT)
+    if cold:
+        rows = np.concatenate(cold)
+        u[rows], f[rows], its[rows], conv[rows] = _cold(model, system, r[rows], carry,
+                                                        max_iterations)
+    return u, f, its, conv

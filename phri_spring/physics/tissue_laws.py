@@ -194,7 +194,8 @@ class TissueLaw:
 
         Exact for monotone laws; a law with a closed-form inverse may override it.
         """
-        f = np.broadcast_to(np.asarray(f, dtype=float), (self.n,))
+        f = np.asarray(f, dtype=float)
+        f = np.broadcast_to(f, np.broadcast_shapes(f.shape, (self.n,)))   # (n,) or (m, n)
         return _invert(self.force, self.tangent, f, f / self.k0)
 
 
