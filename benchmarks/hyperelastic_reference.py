@@ -48,6 +48,7 @@ sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
 from phri_spring.physics import fe_hyper as fh  # noqa: E402
+from phri_spring.physics import fe_hyper_mesh as fh_mesh  # noqa: E402
 from phri_spring.physics.fe_reference import direct_rigid_cuff_response  # noqa: E402
 from phri_spring.workflows.common import continuum_modulus, coupled_model  # noqa: E402
 
@@ -269,7 +270,7 @@ def main(argv=None):
                     *(argv if argv is not None else sys.argv[1:])])
     cfg = rigid_config(args.config)
     levels = [int(v) for v in args.levels.split(",")]
-    felupe = fh._felupe()
+    felupe = fh_mesh._felupe()
 
     res = dict(command=cmd, config=args.config, machine=dict(
         machine=platform.machine(), cores=os.cpu_count(), python=platform.python_version(),
