@@ -1,7 +1,7 @@
 """The human preset's stiffening rate ``tissue.stiffening`` from a published Ogden fit.
 
-    python examples/make_human_stiffening.py            # about 2 minutes
-    python examples/make_human_stiffening.py --checks   # + mesh and friction checks (+1 min)
+    python examples/make_human_stiffening.py            # about 30 s
+    python examples/make_human_stiffening.py --checks   # + mesh and friction checks (+20 s)
 
 Source. Fougeron, Rohan, Haering, Rose, Bonnet and Pillet, "Combining Freehand
 Ultrasound-Based Indentation and Inverse Finite Element Modeling for the Identification
@@ -16,11 +16,13 @@ Conversion (no parameter is tuned to any interface data):
 1. The preset's own indenter test, simulated: a rigid flat 9 mm punch
    (``tissue.indenter_diameter``) on the preset's layer (``tissue.continuum``: 25 mm,
    bonded to a rigid bone, nu = 0.45), large-deformation axisymmetric FE (9-node
-   quadrilaterals, scikit-fem: the package's ``fe`` extra), compressible one-term Ogden
+   quadrilaterals, scikit-fem: the package's ``fe`` extra;
+   ``phri_spring.physics.fe_punch_ogden``, which also has the inverse, alpha from an
+   indenter curve's beta: ``ogden_alpha_from_stiffening``), compressible one-term Ogden
    solid W = (2 mu / alpha^2) (l1^alpha + l2^alpha + l3^alpha - 3) + (K/2)(J - 1)^2
    (isochoric stretches l_i = J^(-1/3) lambda_i), alpha = 10 (relaxed), K / mu fixed by
-   nu = 0.45, the punch face bonded (a frictionless face lets the sharp edge invert
-   elements beyond a few mm; ``--checks`` compares the two where both run).
+   nu = 0.45, the punch face bonded (a frictionless face carries 19 % less force at
+   10 mm: ``--checks``).
 2. The stiffening does not depend on mu: at fixed alpha and nu the energy, and so the
    force at every depth, is proportional to mu. Only alpha is taken from the study; mu is
    set so that the small-strain modulus is the preset's E = 30 kPa, whose indenter
@@ -49,15 +51,14 @@ import time
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse.linalg as spla
-from scipy.optimize import least_squares
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.physics.fe_mesh import _graded  # noqa: E402
 from phri_spring.physics.fe_punch import flat_punch_stiffness  # noqa: E402
+from phri_spring.physics.fe_punch_ogden import (fit_stiffening, punch_curve,  # noqa: E402
+                                                slope_at_contact)
 from phri_spring.physics.indentation_exponential import fit_branches, law_force  # noqa: E402
 
 CONFIG = ROOT / "configs" / "human_upper_arm.yaml"
@@ -66,176 +67,7 @@ ALPHA, ALPHA_SD = 10.0, 1.0
 MU_STUDY = 3.2e3           # Pa, reported, not used (the stiffening does not depend on it)
 DEPTH_MAX = 0.010          # m, deepest indentation simulated
 STEPS = 50                 # load steps to DEPTH_MAX (0.2 mm each)
-
-
-# --------------------------------------------------------------------------- material
-
-
-def ogden_stress(g, mu, alpha, kappa):
-    """First Piola stress of the compressible one-term Ogden solid, axisymmetric.
-
-    ``g`` (5, ...): F_rr - 1, F_rz, F_zr, F_zz - 1, F_tt - 1 at the quadrature points.
-    Returns P in the same layout, and J. Principal stretches of the in-plane block from
-    its right Cauchy-Green tensor; the hoop stretch is principal.
-    """
-    F11, F12, F21, F22, F33 = 1 + g[0], g[1], g[2], 1 + g[3], 1 + g[4]
-    C11, C12, C22 = F11 * F11 + F21 * F21, F11 * F12 + F21 * F22, F12 * F12 + F22 * F22
-    ev, N = np.linalg.eigh(np.stack([np.stack([C11, C12], -1), np.stack([C12, C22], -1)], -2))
-    l1, l2, l3 = np.sqrt(ev[..., 0]), np.sqrt(ev[..., 1]), F33
-    J = l1 * l2 * l3
-    Jm = np.cbrt(1.0 / J)
-    b = [(Jm * lam) ** alpha for lam in (l1, l2, l3)]
-    mean = (b[0] + b[1] + b[2]) / 3.0
-    vol = kappa * (J - 1.0) * J
-    t = [2.0 * mu / alpha * (bi - mean) + vol for bi in b]      # lambda_i dW/dlambda_i
-    s1, s2 = t[0] / l1 ** 2, t[1] / l2 ** 2
-    n1, n2 = N[..., :, 0], N[..., :, 1]
-    S = (s1[..., None, None] * n1[..., :, None] * n1[..., None, :]
-         + s2[..., None, None] * n2[..., :, None] * n2[..., None, :])
-    P = np.stack([F11 * S[..., 0, 0] + F12 * S[..., 1, 0], F11 * S[..., 0, 1] + F12 * S[..., 1, 1],
-                  F21 * S[..., 0, 0] + F22 * S[..., 1, 0], F21 * S[..., 0, 1] + F22 * S[..., 1, 1],
-                  t[2] / l3])
-    return P, J
-
-
-# --------------------------------------------------------------------------- punch FE
-
-
-def punch_curve(radius, thickness, young_modulus, poisson_ratio, alpha, *, depth=DEPTH_MAX,
-                steps=STEPS, edge_size=None, bonded=True):
-    """Force-depth curve of a rigid flat punch on an Ogden layer bonded to a rigid base.
-
-    Axisymmetric, total Lagrangian, 9-node quadrilaterals graded toward the punch edge
-    (``edge_size``, default radius / 8, growing by 1.25), layer 10 max(h, a) wide;
-    displacement-controlled Newton steps with a tangent predictor and step halving
-    against inverted elements. mu = E / (2 (1 + nu)), K = E / (3 (1 - 2 nu)), the
-    small-strain moduli of the linear layer.
-
-    Returns
-    -------
-    depth [m], force [N] (arrays from 0, stopping early if an element inverts), status
-    """
-    from skfem import (Basis, BilinearForm, ElementQuad2, ElementVector, LinearForm,
-                       MeshQuad, asm)
-
-    a, h = float(radius), float(thickness)
-    mu = young_modulus / (2.0 * (1.0 + poisson_ratio))
-    kappa = young_modulus / (3.0 * (1.0 - 2.0 * poisson_ratio))
-    h0 = a / 8.0 if edge_size is None else float(edge_size)
-    inner = a - _graded(a, h0, 1.25)[::-1]
-    rn = np.unique(np.concatenate([[0.0], inner[inner > 0], [a],
-                                   a + _graded(10.0 * max(h, a), h0, 1.25)]))
-    zn = np.unique(np.concatenate([[0.0], -_graded(h, h0, 1.25)]))
-    zn[0] = -h
-    ib = Basis(MeshQuad.init_tensor(rn, zn), ElementVector(ElementQuad2()), intorder=4)
-    loc, comp = ib.doflocs, np.tile(np.arange(2), ib.N // 2)
-    tol = 1e-12
-    under = (np.abs(loc[1]) <= tol) & (loc[0] <= a + tol)
-    punch = np.nonzero(under & (comp == 1))[0]
-    fixed = [np.nonzero(np.abs(loc[1] + h) <= tol)[0],                # bonded to the bone
-             np.nonzero((np.abs(loc[0]) <= tol) & (comp == 0))[0],   # axis
-             punch]
-    if bonded:
-        fixed.append(np.nonzero(under & (comp == 0))[0])
-    free = np.setdiff1d(np.arange(ib.N), np.concatenate(fixed))
-    r = ib.global_coordinates().value[0]
-
-    def strain(v, rr):
-        return (v.grad[0][0], v.grad[0][1], v.grad[1][0], v.grad[1][1], v[0] / rr)
-
-    @LinearForm
-    def residual_form(v, w):
-        dv = strain(v, w.x[0])
-        return 2 * np.pi * w.x[0] * sum(w[f"P{i}"] * dv[i] for i in range(5))
-
-    @BilinearForm
-    def tangent_form(du, v, w):
-        a_, b_ = strain(du, w.x[0]), strain(v, w.x[0])
-        return 2 * np.pi * w.x[0] * sum(w[f"H{i}{j}"] * a_[j] * b_[i]
-                                        for i in range(5) for j in range(5))
-
-    def state(u):
-        f = ib.interpolate(u)
-        g = np.stack([f.grad[0][0], f.grad[0][1], f.grad[1][0], f.grad[1][1], f.value[0] / r])
-        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            P, J = ogden_stress(g, mu, alpha, kappa)
-        return g, P, bool(np.all(J > 0) and np.all(np.isfinite(P)))
-
-    def residual(P):
-        return asm(residual_form, ib, **{f"P{i}": P[i] for i in range(5)})
-
-    def tangent(g, eps=1e-7):      # material tangent by central differences of P
-        H = np.empty((5, 5) + g.shape[1:])
-        for j in range(5):
-            gp, gm = g.copy(), g.copy()
-            gp[j] += eps
-            gm[j] -= eps
-            H[:, j] = (ogden_stress(gp, mu, alpha, kappa)[0]
-                       - ogden_stress(gm, mu, alpha, kappa)[0]) / (2 * eps)
-        return asm(tangent_form, ib, **{f"H{i}{j}": H[i, j] for i in range(5)
-                                        for j in range(5)}).tocsr()
-
-    def solve_free(K, rhs):
-        return spla.spsolve(K[free][:, free].tocsc(), rhs)
-
-    def line_search(u, du):
-        step = 1.0
-        while step >= 1e-4:
-            g, P, ok = state(u + step * du)
-            if ok:
-                return u + step * du, g, P
-            step *= 0.5
-        return None
-
-    depths = np.linspace(0.0, depth, steps + 1)
-    forces = [0.0]
-    u = np.zeros(ib.N)
-    g, P, _ = state(u)
-    for d in depths[1:]:
-        # predictor: the punch's increment carried into the layer by the current tangent
-        K, R = tangent(g), residual(P)
-        du = np.zeros(ib.N)
-        du[punch] = -d - u[punch]
-        du[free] = solve_free(K, -(R[free] + K[free] @ du))
-        for _ in range(40):
-            nxt = line_search(u, du)
-            if nxt is None:
-                return (depths[:len(forces)], np.array(forces),
-                        f"element inverted at {d * 1e3:.2f} mm")
-            u, g, P = nxt
-            R = residual(P)
-            if np.linalg.norm(R[free]) <= 1e-9 * max(abs(R[punch].sum()), 1e-12):
-                break
-            du = np.zeros(ib.N)
-            du[free] = solve_free(tangent(g), -R[free])
-        else:
-            return (depths[:len(forces)], np.array(forces),
-                    f"no convergence at {d * 1e3:.2f} mm")
-        forces.append(-float(R[punch].sum()))
-    return depths, np.array(forces), "ok"
-
-
-def small_strain_slope(radius, thickness, young_modulus, poisson_ratio, alpha, bonded=True):
-    """Slope at contact [N/m]: one 10 um step of :func:`punch_curve`."""
-    d, f, _ = punch_curve(radius, thickness, young_modulus, poisson_ratio, alpha, depth=1e-5,
-                          steps=1, bonded=bonded)
-    return f[1] / d[1]
-
-
-# --------------------------------------------------------------------------- fit
-
-
-def fit_beta(depth, force, k0, depth_max):
-    """beta [1/m] of F = (k0/beta)(exp(beta d) - 1) on 0 <= d <= depth_max, k0 held; R^2."""
-    m = depth <= depth_max * (1 + 1e-9)
-    d, f = depth[m], force[m]
-    res = least_squares(lambda b: law_force(d, k0, b[0]) - f, [50.0], bounds=([0.0], [np.inf]),
-                        x_scale=[100.0])
-    beta = float(res.x[0])
-    fit = law_force(d, k0, beta)
-    r2 = 1.0 - float(np.sum((fit - f) ** 2) / np.sum((f - f.mean()) ** 2))
-    worst = float(np.max(np.abs(fit[1:] - f[1:]) / f[1:]))
-    return beta, r2, worst
+RUN = dict(depth=DEPTH_MAX, steps=STEPS)
 
 
 def main(argv=None) -> dict:
@@ -256,12 +88,12 @@ def main(argv=None) -> dict:
           f"(mu = {MU_STUDY / 1e3:g} kPa, not used: the force scales with mu)")
 
     k_lin = flat_punch_stiffness(h, E, nu, a)
-    k_bonded = small_strain_slope(a, h, E, nu, ALPHA)
-    k_slip = small_strain_slope(a, h, E, nu, ALPHA, bonded=False)
+    k_bonded = slope_at_contact(a, h, E, nu, ALPHA)
+    k_slip = slope_at_contact(a, h, E, nu, ALPHA, bonded=False)
     print(f"slope at contact: this FE {k_bonded:.1f} N/m bonded face, {k_slip:.1f} N/m "
           f"frictionless; the package's linear punch FE (frictionless) {k_lin:.1f} N/m")
 
-    depth, force, status = punch_curve(a, h, E, nu, ALPHA)
+    depth, force, status = punch_curve(a, h, E, nu, ALPHA, **RUN)
     d_pain = float(np.interp(f_pain, force, depth))
     if status != "ok" or force[-1] < f_pain:
         raise SystemExit(f"the FE did not reach the pain-threshold force: {status}")
@@ -273,7 +105,7 @@ def main(argv=None) -> dict:
     print(f"pain threshold {cfg.pain_threshold_kpa:g} kPa on the punch = {f_pain:.2f} N, "
           f"reached at {d_pain * 1e3:.2f} mm: the fit range")
 
-    beta, r2, worst = fit_beta(depth, force, k_bonded, d_pain)
+    beta, r2, worst = fit_stiffening(depth, force, k_bonded, d_pain)
     free = fit_branches([depth[depth <= d_pain]], [force[depth <= d_pain]])
     over = float(np.ravel(law_force(d_pain, k_preset, free["stiffening"]))[0]) / f_pain - 1.0
     print(f"\nbeta (k0 = slope at contact, contact at 0): {beta:.1f} 1/m "
@@ -287,15 +119,15 @@ def main(argv=None) -> dict:
     print("\nsensitivity (same fit):")
     out = {"beta": beta, "depth_range_m": d_pain, "k0_fe": k_bonded}
     for alpha in (ALPHA - ALPHA_SD, ALPHA + ALPHA_SD):
-        d2, f2, st = punch_curve(a, h, E, nu, alpha)
-        k2 = small_strain_slope(a, h, E, nu, alpha)
+        d2, f2, st = punch_curve(a, h, E, nu, alpha, **RUN)
+        k2 = slope_at_contact(a, h, E, nu, alpha)
         dp2 = float(np.interp(f_pain, f2, d2))
-        b2 = fit_beta(d2, f2, k2, dp2)[0]
+        b2 = fit_stiffening(d2, f2, k2, dp2)[0]
         out[f"beta_alpha{alpha:g}"] = b2
         print(f"  alpha = {alpha:g}: beta {b2:.1f} 1/m (range 0-{dp2 * 1e3:.2f} mm) [{st}]")
     for dmax in (0.006, 0.008, DEPTH_MAX):
         print(f"  alpha = {ALPHA:g}, range 0-{dmax * 1e3:g} mm: "
-              f"beta {fit_beta(depth, force, k_bonded, dmax)[0]:.1f} 1/m")
+              f"beta {fit_stiffening(depth, force, k_bonded, dmax)[0]:.1f} 1/m")
 
     g = cfg.geometry()
     sizes = {"one Harmony element": math.sqrt(float(np.mean(g.areas)) / math.pi),
@@ -305,9 +137,9 @@ def main(argv=None) -> dict:
     print(f"  {cfg.indenter_diameter * 1e3:g} mm indenter (radius {a * 1e3:.1f} mm): "
           f"beta {beta:.1f} 1/m")
     for what, radius in sizes.items():
-        d3, f3, st = punch_curve(radius, h, E, nu, ALPHA)
-        k3 = small_strain_slope(radius, h, E, nu, ALPHA)
-        b3 = fit_beta(d3, f3, k3, d_pain)[0]
+        d3, f3, st = punch_curve(radius, h, E, nu, ALPHA, **RUN)
+        k3 = slope_at_contact(radius, h, E, nu, ALPHA)
+        b3 = fit_stiffening(d3, f3, k3, d_pain)[0]
         out[f"beta_radius_{radius * 1e3:.1f}mm"] = b3
         sec = float(np.interp(d_pain, d3, f3)) / d_pain / k3
         print(f"  {what} (radius {radius * 1e3:.1f} mm): beta {b3:.1f} 1/m, secant at "
@@ -317,11 +149,11 @@ def main(argv=None) -> dict:
 
     if args.checks:
         print("\nchecks:")
-        d4, f4, st = punch_curve(a, h, E, nu, ALPHA, edge_size=a / 20)
+        d4, f4, st = punch_curve(a, h, E, nu, ALPHA, edge_size=a / 20, **RUN)
         n = min(len(d4), len(depth))
         print(f"  edge elements a/20 instead of a/8: force differs by at most "
               f"{np.max(np.abs(f4[1:n] / force[1:n] - 1)):.2%} to {d4[n - 1] * 1e3:.1f} mm [{st}]")
-        d5, f5, st = punch_curve(a, h, E, nu, ALPHA, bonded=False)
+        d5, f5, st = punch_curve(a, h, E, nu, ALPHA, bonded=False, **RUN)
         n = min(len(d5), len(depth))
         print(f"  frictionless face: force {f5[n - 1] / force[n - 1] - 1:+.1%} against the "
               f"bonded face at {d5[n - 1] * 1e3:.1f} mm [{st}]")
