@@ -1,4 +1,4 @@
-"""The reduced neo-Hookean coupled model against the hyperelastic FE, and its speed.
+"""The reduced hyperelastic (neo-Hookean or Ogden) coupled model against its FE, and its speed.
 
 Run from the repository root (progress on stderr, the markdown report on stdout or
 ``--out``)::
@@ -21,6 +21,9 @@ wrench scaled so that 99 % of it lies within 80 % of the identified range, and t
 loading repeated, as cuff wrenches) for the linear coupled model
 of the same config and the reduced one taking turns, medians of samples/s and of the
 pairwise ratios; and ``Solver.forces`` one sample at a time (the live path), median us.
+
+``--law ogden --ogden-alpha A --reference JSON``: the same for the Ogden layer, against a
+reference made by ``hyperelastic_reference.py --law ogden --ogden-alpha A``.
 """
 
 from __future__ import annotations
@@ -66,10 +69,12 @@ def log(msg):
     print(f"[{time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
-def config():
+def config(law="neo_hookean", alpha=None):
     raw = yaml.load(PRESET.read_text(), Loader=_StrictSafeLoader)
     raw["cuff"]["stiffness"] = float("inf")
-    raw["tissue"]["continuum"]["law"] = "neo_hookean"
+    raw["tissue"]["continuum"]["law"] = law
+    if alpha is not None:
+        raw["tissue"]["continuum"]["ogden_alpha"] = float(alpha)
     return config_from_dict(raw, path=PRESET, base_dir=PRESET.parent)
 
 
@@ -88,10 +93,11 @@ def reduced(cfg, linear3, level, cache_dir):
         cfg.poisson_ratio, ident, max_force=cfg.continuum_max_force,
         max_moment=cfg.continuum_max_moment, strap=strap_settings(cfg), cache_dir=cache_dir,
         level=level,
-        rays=store.IDENTIFY_RAYS, patch_gap=cfg.continuum_patch_gap, progress=progress)
+        rays=store.IDENTIFY_RAYS, patch_gap=cfg.continuum_patch_gap, progress=progress,
+        law=cfg.continuum_law, ogden_alpha=cfg.continuum_ogden_alpha)
     log(f"identification level {level}: {red.info['source']} "
         f"({red.info.get('seconds_identify', red.info['seconds']):.0f} s)")
-    return HyperCoupledModel(linear=linear3, reduction=red,
+    return HyperCoupledModel(linear=linear3, reduction=red, continuum_law=cfg.continuum_law,
                              pain_threshold_kpa=cfg.pain_threshold_kpa)
 
 
@@ -158,15 +164,19 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--out", default=None)
     ap.add_argument("--json", default=None, help="also write every number here")
+    ap.add_argument("--law", default="neo_hookean", choices=["neo_hookean", "ogden"])
+    ap.add_argument("--ogden-alpha", type=float, default=None)
+    ap.add_argument("--reference", default=str(REFERENCE), help="the FE reference's JSON")
     args = ap.parse_args(argv)
-    ref = json.loads(REFERENCE.read_text())
-    cfg = config()
+    ref = json.loads(Path(args.reference).read_text())
+    cfg = config(args.law, args.ogden_alpha)
     linear3 = _linear_coupled_model(cfg, cache_dir=args.cache_dir, level=3)
     levels = [int(v) for v in args.levels.split(",")]
     models = {L: reduced(cfg, linear3, L, args.cache_dir) for L in levels}
     result = dict(command=" ".join(["python"] + sys.argv), machine=platform.platform(),
                   python=platform.python_version(), numpy=np.__version__,
-                  rays=store.IDENTIFY_RAYS, identification={}, accuracy={}, speed={})
+                  rays=store.IDENTIFY_RAYS, law=args.law, ogden_alpha=args.ogden_alpha,
+                  identification={}, accuracy={}, speed={})
     for L, m in models.items():
         result["identification"][L] = {k: v for k, v in m.reduction.info.items()
                                        if isinstance(v, (int, float, str))}

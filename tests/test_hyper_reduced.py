@@ -186,3 +186,31 @@ def test_a_compliant_cuff_is_refused(linear_model):
     red = _reduction(linear_model, np.random.default_rng(10), 0.0)
     with pytest.raises(ValueError, match="rigid cuff"):
         HyperCoupledModel(linear=compliant, reduction=red)
+
+
+def test_held_out_error_sees_what_the_cubic_cannot_follow(linear_model):
+    """Exact cubic data: the held-out error is round-off. Data with a steep non-cubic part
+    (x^8, as an Ogden layer with a large exponent stiffens): the rays left out are missed by
+    more than the fit's own residual says, and by more than 5 % of the peak force."""
+    rng = np.random.default_rng(3)
+    L = hr.linear_bonded(linear_model)
+    red = _reduction(linear_model, rng, 1.0)
+    rays, fr = 96, np.array([1 / 3, 2 / 3, 1.0])   # 84 rays fitted per fold >= 56 cubic terms
+    ends = rng.standard_normal((rays, 6))
+    ends /= np.abs(ends).max(axis=1, keepdims=True)
+    U = np.vstack([np.zeros((1, 6)), (ends[:, None, :] * fr[None, :, None]).reshape(-1, 6)])
+    U *= red.scale
+    groups = np.r_[-1, np.repeat(np.arange(rays), 3)]
+    x = U / red.scale
+    phi = hr.features(x)
+    R = L["W_pre"] + U @ L["H"].T + phi @ red.wrench
+    F = L["f0"] + U @ L["N"].T + phi @ red.normal
+    P = L["P0"] + U @ L["G"].T + phi @ red.patch
+    exact = hr.fit_reduction(U, R, F, P, L, 70.0, 2.5, groups=groups)
+    assert exact.info["held_out_normal_pct"] < 1e-6
+    steep = 2.0 * np.abs(F).max() * (x[:, :1] ** 8) * np.ones((1, F.shape[1]))
+    F2 = F + steep
+    fit = hr.fit_reduction(U, R, F2, P, L, 70.0, 2.5, groups=groups)
+    resid_pct = 100 * fit.info["fit_rms_normal"] / np.abs(F2).max()
+    assert fit.info["held_out_normal_pct"] > 5.0
+    assert fit.info["held_out_normal_pct"] > resid_pct

@@ -1,4 +1,5 @@
-"""The coupled arm with a neo-Hookean tissue layer, at spring speed (docs/model.md section 10.8).
+"""The coupled arm with a hyperelastic (neo-Hookean or Ogden) tissue layer, at spring speed
+(docs/model.md section 10.8).
 
 A :class:`HyperCoupledModel` is the linear coupled model of a rigid cuff bonded over its
 patches (:class:`~phri_spring.physics.coupled.CoupledModel`, its mesh level and preload)
@@ -24,12 +25,15 @@ from .model import OnGeometry, field_unit
 __all__ = ["HyperCoupledModel", "CONTINUUM_LAWS"]
 
 #: the continuum laws of the coupled arm (``tissue.continuum.law``)
-CONTINUUM_LAWS = ("linear", "neo_hookean")
+CONTINUUM_LAWS = ("linear", "neo_hookean", "ogden")
 
 
 @dataclass(frozen=True, eq=False)
 class HyperCoupledModel(OnGeometry):
-    """A rigid bonded cuff on a neo-Hookean tissue layer, reduced (module docstring).
+    """A rigid bonded cuff on a hyperelastic tissue layer, reduced (module docstring).
+
+    ``continuum_law`` names the layer's law (``neo_hookean`` or ``ogden``); the reduction
+    is identified on the FE of that law and does not depend on it otherwise.
 
     Attributes
     ----------
@@ -67,7 +71,7 @@ class HyperCoupledModel(OnGeometry):
 
     def __post_init__(self):
         if not np.all(np.isinf(self.linear.k_cuff)):
-            raise ValueError("the neo-Hookean coupled model needs a rigid cuff (k_cuff inf)")
+            raise ValueError("the hyperelastic coupled model needs a rigid cuff (k_cuff inf)")
         lin = linear_bonded(self.linear)
         for name in ("H", "N", "G", "P0"):
             object.__setattr__(self, name, lin[name])

@@ -22,7 +22,29 @@ from .fe_mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_PATCH_GAP, _mesh_lines, che
 __all__ = ["HYPER_EXTRA_HINT", "LAWS", "HyperCuff", "build_hyper_cuff"]
 
 HYPER_EXTRA_HINT = "the hyperelastic reference FE needs felupe: pip install -e .[hyper]"
-LAWS = ("neo_hookean", "linear")
+LAWS = ("neo_hookean", "ogden", "linear")
+
+
+def _material(fem, law, young_modulus, poisson_ratio, ogden_alpha):
+    """The felupe material of a law at small-strain moduli (E, nu): mu = E / (2 (1 + nu)),
+    K = E / (3 (1 - 2 nu)).
+
+    ``ogden``: the compressible one-term Ogden solid of the punch FE
+    (:mod:`~phri_spring.physics.fe_punch_ogden`), psi = (2 mu / alpha^2)(sum_i
+    (J^-1/3 lambda_i)^alpha - 3) + K/2 (J - 1)^2, by felupe's automatic differentiation
+    (tensortrax); alpha = 2 is the neo-Hookean solid.
+    """
+    E, nu = float(young_modulus), float(poisson_ratio)
+    mu, bulk = E / (2 * (1 + nu)), E / (3 * (1 - 2 * nu))
+    if law == "neo_hookean":
+        return fem.NeoHooke(mu=mu, bulk=bulk)
+    if law == "ogden":
+        try:
+            iso = fem.Hyperelastic(fem.ogden, mu=[mu], alpha=[float(ogden_alpha)])
+        except (ImportError, AttributeError):
+            raise UsageError("the Ogden law needs tensortrax: pip install -e .[hyper]") from None
+        return iso & fem.Volumetric(bulk=bulk)
+    return fem.LinearElastic(E=E, nu=nu)
 
 
 def _felupe():
@@ -127,7 +149,8 @@ def _plate_offsets(model):
 
 def build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio, *, level=3,
                      patch_gap=DEFAULT_PATCH_GAP, length_factor=DEFAULT_LENGTH_FACTOR,
-                     law="neo_hookean", rotation=None, delta=None) -> HyperCuff:
+                     law="neo_hookean", ogden_alpha=None, rotation=None,
+                     delta=None) -> HyperCuff:
     """Mesh the tissue under a cuff and set up its felupe model.
 
     Parameters
@@ -139,11 +162,14 @@ def build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio, *, level
     level, patch_gap, length_factor
         Mesh level, free skin between plates [m], tissue beyond each cuff edge [t]: the
         linear FE's (:func:`~phri_spring.physics.fe_tissue.condensed_surface_operators`).
-    law : {'neo_hookean', 'linear'}
-        felupe ``NeoHooke(mu, bulk)`` or small-strain ``LinearElastic(E, nu)``.
+    law : {'neo_hookean', 'ogden', 'linear'}
+        felupe ``NeoHooke(mu, bulk)``, the one-term Ogden solid with exponent
+        ``ogden_alpha`` (:func:`_material`), or small-strain ``LinearElastic(E, nu)``.
+    ogden_alpha : float
+        The Ogden exponent alpha [-] (law ``ogden`` only; 0 < alpha <= 40).
     rotation : {'finite', 'linear'}, optional
         The cuff's rotation: Rodrigues' Rot(w), or the linearised I + [w]x (the linear
-        FE's). Default: finite for the neo-Hookean law, linear for the linear one (a
+        FE's). Default: finite for the hyperelastic laws, linear for the linear one (a
         small-strain law is not objective: a finite rotation strains it spuriously).
     delta : array_like, shape (n*d,), optional
         Plate preload offsets (:meth:`HyperCuff.set_preload`), e.g. :func:`preload_offsets`.
@@ -161,8 +187,10 @@ def build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio, *, level
     t0 = time.perf_counter()
     if law not in LAWS:
         raise ValueError(f"law: expected one of {LAWS}, got {law!r}")
+    if law == "ogden" and not (ogden_alpha is not None and 0 < float(ogden_alpha) <= 40):
+        raise ValueError(f"ogden_alpha: expected 0 < alpha <= 40, got {ogden_alpha!r}")
     if rotation is None:
-        rotation = "finite" if law == "neo_hookean" else "linear"
+        rotation = "linear" if law == "linear" else "finite"
     if rotation not in ("finite", "linear"):
         raise ValueError(f"rotation: expected 'finite' or 'linear', got {rotation!r}")
     R = single_radius(geometry)
@@ -194,8 +222,7 @@ def build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio, *, level
     fld = fem.FieldContainer([fem.Field(region, dim=3)])
     E, nu = float(young_modulus), float(poisson_ratio)
     mu, bulk = E / (2 * (1 + nu)), E / (3 * (1 - 2 * nu))
-    umat = fem.NeoHooke(mu=mu, bulk=bulk) if law == "neo_hookean" else \
-        fem.LinearElastic(E=E, nu=nu)
+    umat = _material(fem, law, E, nu, ogden_alpha)
     solid = fem.SolidBody(umat, fld)
     # plates: skin nodes in each plate's box (theta on the plate's own branch)
     xl, xh, tl, th_ = patch_plates(geometry, gap)
@@ -239,7 +266,8 @@ def build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio, *, level
     model.info = dict(level=int(level), n_dofs=3 * len(P), n_free=len(free),
                       n_elements=len(cells), n_plate_nodes=len(s_nodes), patch_gap=gap,
                       length=float(xs[-1] - xs[0]), length_factor=float(length_factor),
-                      mu=mu, bulk=bulk, seconds=time.perf_counter() - t0)
+                      mu=mu, bulk=bulk, seconds=time.perf_counter() - t0,
+                      ogden_alpha=None if law != "ogden" else float(ogden_alpha))
     return model
 
 

@@ -38,7 +38,8 @@ import numpy as np
 
 from .model import field_unit
 
-__all__ = ["DEGREE", "EXPONENTS", "HyperReduction", "features", "fit_reduction",
+__all__ = ["CV_FOLDS", "DEGREE", "EXPONENTS", "HyperReduction", "features", "fit_reduction",
+           "held_out_error",
            "identification_poses", "identification_samples", "identify", "solve_poses"]
 
 #: degree of the correction polynomials (cubic: the first odd and even nonlinear terms)
@@ -185,8 +186,41 @@ def identification_poses(H, max_force: float, max_moment: float, rays: int,
     return np.linalg.solve(H, (d * _range_scale(max_force, max_moment)).T).T
 
 
+#: folds of the held-out check (:func:`fit_reduction`): rays are left out in turn
+CV_FOLDS = 8
+
+
+def _lstsq(phi, Y):
+    # columns scaled to unit norm: the cubic monomials are small where the linear ones are not
+    norms = np.linalg.norm(phi, axis=0)
+    norms[norms == 0] = 1.0
+    return np.linalg.lstsq(phi / norms, Y, rcond=None)[0] / norms[:, None]
+
+
+def held_out_error(phi, Y, F, groups, folds: int = CV_FOLDS) -> float:
+    """The normal-force correction's error on rays it was not fitted to [% of the peak].
+
+    Rays (``groups`` >= 0; -1: always fitted) are split into ``folds`` sets; each set is
+    predicted by the fit to the others. Per held-out pose, the RMSE over the patches in %
+    of that pose's peak |F|; returned: the 95th percentile. It estimates the reduced
+    model's error between its rays, which a fit residual does not (a cubic can follow
+    289 poses closely and still swing between them).
+    """
+    groups = np.asarray(groups)
+    ids = np.unique(groups[groups >= 0])
+    errs = []
+    for k in range(folds):
+        out = np.isin(groups, ids[k::folds])
+        if not out.any():
+            continue
+        c = _lstsq(phi[~out], Y[~out])
+        e = np.sqrt(np.mean((phi[out] @ c - Y[out]) ** 2, axis=1))
+        errs.append(100 * e / np.maximum(np.abs(F[out]).max(axis=1), 1e-12))
+    return float(np.percentile(np.concatenate(errs), 95)) if errs else float("nan")
+
+
 def fit_reduction(U, R, F, P, linear, max_force: float, max_moment: float,
-                  info: dict | None = None) -> HyperReduction:
+                  info: dict | None = None, groups=None) -> HyperReduction:
     """Least-squares corrections from FE samples.
 
     Parameters
@@ -197,6 +231,9 @@ def fit_reduction(U, R, F, P, linear, max_force: float, max_moment: float,
     linear : dict
         The linear bonded model at the FE's mesh level: ``W_pre`` (6,), ``H`` (6, 6),
         ``f0`` (n,), ``N`` (n, 6), ``P0`` (n*6,), ``G`` (n*6, 6).
+    groups : array_like of int, shape (m,), optional
+        The ray of each pose (-1: the preload): ``info["held_out_normal_pct"]`` then holds
+        :func:`held_out_error` of the normal forces.
     """
     U = np.asarray(U, float)
     scale = np.max(np.abs(U), axis=0)
@@ -207,13 +244,14 @@ def fit_reduction(U, R, F, P, linear, max_force: float, max_moment: float,
         wrench=R - linear["W_pre"] - U @ linear["H"].T,
         normal=F - linear["f0"] - U @ linear["N"].T,
         patch=P - linear["P0"] - U @ linear["G"].T)
-    # columns scaled to unit norm: the cubic monomials are small where the linear ones are not
-    norms = np.linalg.norm(phi, axis=0)
     coef, out = {}, dict(info or {})
     for name, Y in targets.items():
-        c = np.linalg.lstsq(phi / norms, Y, rcond=None)[0] / norms[:, None]
+        c = _lstsq(phi, Y)
         coef[name] = c
         out[f"fit_rms_{name}"] = float(np.sqrt(np.mean((phi @ c - Y) ** 2)))
+    if groups is not None:
+        out["held_out_normal_pct"] = held_out_error(phi, targets["normal"], np.asarray(F),
+                                                    groups)
     out.update(samples=len(U), max_force=float(max_force), max_moment=float(max_moment))
     D = _range_scale(max_force, max_moment)
     return HyperReduction(scale=scale, range_map=linear["H"] / D[:, None], info=out, **coef)
@@ -226,7 +264,8 @@ def identify(cuff, linear, *, max_force: float, max_moment: float, rays: int,
     U, R, F, P, info = identification_samples(
         cuff, linear, max_force=max_force, max_moment=max_moment, rays=rays,
         fractions=fractions, seed=seed, progress=progress)
-    return fit_reduction(U, R, F, P, linear, max_force, max_moment, info)
+    groups = np.r_[-1, np.repeat(np.arange(int(rays)), len(fractions))]
+    return fit_reduction(U, R, F, P, linear, max_force, max_moment, info, groups=groups)
 
 
 def identification_samples(cuff, linear, *, max_force: float, max_moment: float,

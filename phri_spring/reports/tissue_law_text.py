@@ -89,18 +89,26 @@ def _law_keys(cfg) -> list:
 def arm_law_text(cfg, arm: str) -> str:
     """What the tissue of an arm is: the compliant arm's law (:func:`law_text`), ``no tissue
     (cuff springs only)`` for the rigid arm, ``linear continuum`` (or ``neo-Hookean
-    continuum``, ``tissue.continuum.law``) for the coupled arm (with the note that the law's parameters are not used by it, when the config gives a
+    continuum``, ``Ogden continuum``: ``tissue.continuum.law``) for the coupled arm (with the note that the law's parameters are not used by it, when the config gives a
     nonlinear law)."""
     if arm == "rigid":
         return "no tissue (cuff springs only)"
     if arm == "coupled":
         notes = []
-        if getattr(cfg, "continuum_law", "linear") == "neo_hookean":
+        law = getattr(cfg, "continuum_law", "linear")
+        alpha = getattr(cfg, "continuum_ogden_alpha", None)
+        stiffening_used = law == "ogden" and alpha is None     # alpha from the indenter curve
+        if law == "neo_hookean":
             name = "neo-Hookean continuum"
+            notes.append("reduced model, rigid bonded cuff")
+        elif law == "ogden":
+            name = "Ogden continuum"
+            notes.append(f"alpha {alpha:g}" if alpha is not None else
+                         "alpha identified from tissue.stiffening by the indenter FE")
             notes.append("reduced model, rigid bonded cuff")
         else:
             name = "linear continuum"
-        if is_nonlinear(cfg):
+        if is_nonlinear(cfg) and not stiffening_used:
             keys = _law_keys(cfg)
             verb = "is" if len(keys) == 1 else "are"
             notes.append(f"{' and '.join(keys)} {verb} used by the compliant arm only")

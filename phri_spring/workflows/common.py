@@ -184,10 +184,10 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
     What ``model_from_config(cfg, "coupled")`` builds (without its memory check), with the
     FE's mesh level open to the convergence and reference benchmarks; ``level=None`` is
     the shipped :data:`~phri_spring.physics.fe_mesh.DEFAULT_LEVEL`. With
-    ``tissue.continuum.law: neo_hookean`` the reduced neo-Hookean model
+    ``tissue.continuum.law`` ``neo_hookean`` or ``ogden`` the reduced hyperelastic model
     (:func:`~phri_spring.workflows.hyper_arm.hyper_coupled_model`) on this linear one.
     """
-    if cfg.continuum_law == "neo_hookean":
+    if cfg.continuum_law in ("neo_hookean", "ogden"):
         from .hyper_arm import hyper_coupled_model
 
         return hyper_coupled_model(

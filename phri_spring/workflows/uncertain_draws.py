@@ -365,8 +365,9 @@ def check_fe_cache(cfg: Config, inputs: UncertainInputs, arms) -> None:
     if ("coupled" not in arms or cfg.continuum_surface_stiffness is not None
             or cfg.continuum_thickness is None or not reaches_model(cfg, inputs, "coupled")):
         return
-    if cfg.continuum_law == "neo_hookean":
-        raise UsageError("the coupled arm's Monte Carlo with tissue.continuum.law neo_hookean "
+    if cfg.continuum_law in ("neo_hookean", "ogden"):
+        raise UsageError("the coupled arm's Monte Carlo with tissue.continuum.law "
+                         f"{cfg.continuum_law} "
                          "would identify the reduced model again for every draw of the "
                          "modulus or the strap tension (minutes each); run the coupled arm's "
                          "uncertainty with the linear continuum", key="tissue.continuum.law")
