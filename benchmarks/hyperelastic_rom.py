@@ -259,7 +259,7 @@ def report(res, levels):
                      f"{inf.get('fit_rms_normal', float('nan')):.4f} |")
     sp = res["speed"]
     lines += ["", "## Speed (this process, medians)", "",
-              "| log | linear coupled [samples/s] | reduced neo-Hookean [samples/s] | "
+              "| log | linear coupled [samples/s] | reduced hyperelastic [samples/s] | "
               "ratio (median of pairs) | converged: linear / reduced |",
               "|---|---:|---:|---:|---|"]
     for name in ("random", "paper"):
