@@ -106,8 +106,10 @@ class PhriGroup(click.Group):
             args.remove("--traceback")
             os.environ["PHRI_TRACEBACK"] = "1"
         prog = prog_name or "phri"
+        from phri_spring.workflows.hyper_arm import identification_progress
+
         try:
-            with warnings.catch_warnings():
+            with warnings.catch_warnings(), identification_progress(_IdentificationProgress()):
                 if not _want_traceback():
                     # no Python warning line for the user (numpy RuntimeWarnings on absurd
                     # values, library deprecations): what matters is in the data and the
@@ -186,9 +188,10 @@ def progress_enabled(flag: bool | None) -> bool:
 class StderrProgress:
     """A minimal progress line on stderr: ``label: 42% (151,200 / 360,000 samples)``."""
 
-    def __init__(self, label: str, enabled: bool):
+    def __init__(self, label: str, enabled: bool, unit: str = "samples"):
         self.label = label
         self.enabled = enabled
+        self.unit = unit
         self._last = -1
 
     def __call__(self, done: int, total: int | None) -> None:
@@ -199,9 +202,9 @@ class StderrProgress:
             if pct == self._last:
                 return
             self._last = pct
-            sys.stderr.write(f"\r{self.label}: {pct:3d}% ({done:,} / {total:,} samples)")
+            sys.stderr.write(f"\r{self.label}: {pct:3d}% ({done:,} / {total:,} {self.unit})")
         else:
-            sys.stderr.write(f"\r{self.label}: {done:,} samples")
+            sys.stderr.write(f"\r{self.label}: {done:,} {self.unit}")
         sys.stderr.flush()
 
     def close(self) -> None:
@@ -209,6 +212,19 @@ class StderrProgress:
             sys.stderr.write("\n")
             sys.stderr.flush()
             self._last = -2
+
+
+class _IdentificationProgress(StderrProgress):
+    """The hyperelastic model's identification (minutes, once per config): its rays."""
+
+    def __init__(self):
+        super().__init__("identifying the hyperelastic tissue model (once per config, then "
+                         "cached)", progress_enabled(None), unit="rays")
+
+    def __call__(self, done: int, total: int | None) -> None:
+        super().__call__(done, total)
+        if total and done >= total:
+            self.close()
 
 
 def info(message: str, quiet: bool = False) -> None:

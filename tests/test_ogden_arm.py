@@ -225,3 +225,28 @@ def test_bad_ogden_configs_are_one_line(tmp_path, monkeypatch, edit, key):
     assert_one_line_error(res, key, code=1)
     assert not out.exists()
     assert not (tmp_path / "cache").exists()            # refused before any FE ran
+
+
+def test_the_identification_shows_its_progress_on_a_terminal(tmp_path, monkeypatch):
+    """The identification takes minutes: on a terminal, phri shows its rays on stderr (off
+    when stderr is not a terminal, as every progress line). The FE is replaced by a
+    recorder that reports two rays and then fails, so no FE runs."""
+    from phri_spring.errors import ConfigError
+    from phri_spring.io import hyper_reduction as store
+
+    def fake(*args, progress=None, **kwargs):
+        progress(1, 2)
+        progress(2, 2)
+        raise ConfigError("stopped after the rays", key="tissue.continuum.max_force")
+
+    monkeypatch.setattr(store, "load_or_identify", fake)
+    monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
+    cfg = _write(tmp_path, _raw())
+    for terminal in (True, False):
+        monkeypatch.setattr("phri_cli._common.progress_enabled", lambda flag: terminal)
+        res = run_phri("simulate", cfg, _log(tmp_path), "--arm", "coupled", "-o",
+                       tmp_path / "f.csv")
+        err = stderr_of(res)
+        assert res.exit_code == 1 and "stopped after the rays" in err
+        shown = "identifying the hyperelastic tissue model" in err and "(2 / 2 rays)" in err
+        assert shown == terminal, err
