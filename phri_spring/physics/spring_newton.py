@@ -222,11 +222,16 @@ def _solve_rows(model, r, u, max_iterations, forces_out=None):
         conv[s:e], its[s:e], f[s:e] = _mixed_rows(model, r[s:e], u[s:e])
     if not conv.all():
         rest = np.flatnonzero(~conv)
-        ur = u_start[rest]
-        its_r, conv_r = _newton_rows(model, r[rest], ur, max_iterations)
-        u[rest], its[rest], conv[rest] = ur, its[rest] + its_r, conv_r
-        f[rest] = model.element.force(model.delta0 + ur @ model.bT)
+        _damped_rows(model, r, rest, u_start[rest], u, its, conv, f, max_iterations)
     return its, conv
+
+
+def _damped_rows(model, r, rows, u_start, u, its, conv, f, max_iterations):
+    """The rows the mixed iteration left: the damped Newton from their starts u_start
+    (len(rows), 6), written into u, its (steps added), conv and the forces f, in place."""
+    its_r, conv_r = _newton_rows(model, r[rows], u_start, max_iterations)
+    u[rows], its[rows], conv[rows] = u_start, its[rows] + its_r, conv_r
+    f[rows] = model.element.force(model.delta0 + u_start @ model.bT)
 
 
 def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state=None,
@@ -383,11 +388,8 @@ def solve_newton_warm(model, system, r, carry, max_iterations: int):
             retry.append(rows[~cr])
             retry_u.append(u_start[~cr])
     if retry:
-        rows = np.concatenate(retry)
-        ur = np.concatenate(retry_u)
-        its_r, conv_r = _newton_rows(model, r[rows], ur, max_iterations)
-        u[rows], its[rows], conv[rows] = ur, its[rows] + its_r, conv_r
-        f[rows] = model.element.force(model.delta0 + ur @ model.bT)
+        _damped_rows(model, r, np.concatenate(retry), np.concatenate(retry_u), u, its, conv,
+                     f, max_iterations)
     if cold:
         rows = np.concatenate(cold)
         u[rows], f[rows], its[rows], conv[rows] = _cold(model, system, r[rows], carry,
