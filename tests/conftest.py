@@ -56,6 +56,32 @@ def harmony() -> dict:
     return harmony_dict()
 
 
+def small_human_cuff(**continuum) -> dict:
+    """The human preset as a mapping, cut to one row of five patches on a rigid cuff (what
+    the hyperelastic arm is identified for, small enough to identify in minutes), with
+    ``tissue.continuum`` updated by ``continuum``."""
+    import yaml
+
+    from phri_spring.io.yaml_loader import _StrictSafeLoader
+
+    raw = yaml.load((REPO / "configs" / "human_upper_arm.yaml").read_text(),
+                    Loader=_StrictSafeLoader)
+    raw["geometry"]["rows"] = {"A": 0.0}
+    raw["geometry"]["angles"] = {"start": 110.0, "step": 35.0, "count": 5}
+    raw["cuff"]["stiffness"] = float("inf")
+    raw["tissue"]["continuum"].update(continuum)
+    return raw
+
+
+def write_yaml(folder, raw: dict, name: str = "cfg.yaml") -> Path:
+    """``raw`` written as YAML to folder / name; the path."""
+    import yaml
+
+    path = Path(folder) / name
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
 # --------------------------------------------------------------------------- strategies
 def _log_uniform(lo, hi):
     return st.floats(math.log(lo), math.log(hi)).map(math.exp)

@@ -18,31 +18,19 @@ import builtins
 import numpy as np
 import pandas as pd
 import pytest
-import yaml
 
 from phri_spring.io.config import config_from_dict
-from phri_spring.io.yaml_loader import _StrictSafeLoader
 from phri_spring.physics.solver import Solver, solve
 
-from conftest import REPO, assert_one_line_error, run_phri, stderr_of
+from conftest import (REPO, assert_one_line_error, run_phri, small_human_cuff,
+                      stderr_of, write_yaml)
 
 HUMAN = REPO / "configs" / "human_upper_arm.yaml"
 
 
 def _raw(**continuum):
-    raw = yaml.load(open(HUMAN), Loader=_StrictSafeLoader)
-    raw["geometry"]["rows"] = {"A": 0.0}
-    raw["geometry"]["angles"] = {"start": 110.0, "step": 35.0, "count": 5}
-    raw["cuff"]["stiffness"] = float("inf")
-    raw["tissue"]["continuum"].update(dict(law="neo_hookean", max_force=20.0, max_moment=0.6),
-                                      **continuum)
-    return raw
-
-
-def _write(tmp_path, raw, name="cfg.yaml"):
-    path = tmp_path / name
-    path.write_text(yaml.safe_dump(raw))
-    return path
+    return small_human_cuff(**{**dict(law="neo_hookean", max_force=20.0, max_moment=0.6),
+                               **continuum})
 
 
 def _short_log(folder, rows=1):
@@ -127,7 +115,7 @@ def test_simulate_cli_runs_the_neo_hookean_arm(identified, tmp_path, monkeypatch
     monkeypatch.setattr("phri_spring.physics.hyper_reduced.identify",
                         lambda *a, **k: pytest.fail("identified again"))
     # the CLI builds the linear part at the shipped level: its identification is at level 1
-    cfg = _write(tmp_path, _raw())
+    cfg = write_yaml(tmp_path, _raw())
     t = np.arange(0, 1.0, 0.01)
     log = tmp_path / "log.csv"
     pd.DataFrame({"time": t, "Fx": 0 * t, "Fy": -10 * np.sin(np.pi * t), "Fz": 2 * t,
@@ -163,7 +151,7 @@ def _per_patch_moduli(raw):
 def test_configs_it_is_not_identified_for_are_one_line(tmp_path, edit, key):
     raw = _raw()
     edit(raw)
-    cfg = _write(tmp_path, raw)
+    cfg = write_yaml(tmp_path, raw)
     np.savez(tmp_path / "k.npz", K=np.eye(30), labels=np.array([f"A{i}" for i in range(5)]))
     log = _short_log(tmp_path)
     out = tmp_path / "forces.csv"
@@ -180,7 +168,7 @@ def test_a_range_the_fe_cannot_reach_is_one_line(tmp_path, monkeypatch):
 
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(store, "IDENTIFY_LEVEL", 1)
-    cfg = _write(tmp_path, _raw(max_force=5000.0, max_moment=200.0))
+    cfg = write_yaml(tmp_path, _raw(max_force=5000.0, max_moment=200.0))
     log = _short_log(tmp_path)
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "-o", tmp_path / "f.csv")
     assert_one_line_error(res, str(cfg), "tissue.continuum.max_force", "identification", code=1)
@@ -199,7 +187,7 @@ def test_missing_felupe_is_one_line_naming_the_extra(tmp_path, monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_felupe)
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
-    cfg = _write(tmp_path, _raw())
+    cfg = write_yaml(tmp_path, _raw())
     log = _short_log(tmp_path)
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "-o", tmp_path / "f.csv")
     assert_one_line_error(res, "hyper", code=2)
@@ -207,7 +195,7 @@ def test_missing_felupe_is_one_line_naming_the_extra(tmp_path, monkeypatch):
 
 def test_monte_carlo_that_would_identify_per_draw_is_refused(tmp_path, monkeypatch):
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
-    cfg = _write(tmp_path, _raw())
+    cfg = write_yaml(tmp_path, _raw())
     log = _short_log(tmp_path, rows=2)
     # a strap tension that scatters changes the preload, so every draw is another model
     res = run_phri("simulate", cfg, log, "--arm", "coupled", "--uncertainty", 20,

@@ -20,32 +20,20 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-import yaml
 
 from phri_spring.io.config import config_from_dict
-from phri_spring.io.yaml_loader import _StrictSafeLoader
 from phri_spring.physics.solver import solve
 
-from conftest import REPO, assert_one_line_error, run_phri, stderr_of
+from conftest import (REPO, assert_one_line_error, run_phri, small_human_cuff,
+                      stderr_of, write_yaml)
 
 HUMAN = REPO / "configs" / "human_upper_arm.yaml"
 ALPHA = 8.0
 
 
 def _raw(**continuum):
-    raw = yaml.load(open(HUMAN), Loader=_StrictSafeLoader)
-    raw["geometry"]["rows"] = {"A": 0.0}
-    raw["geometry"]["angles"] = {"start": 110.0, "step": 35.0, "count": 5}
-    raw["cuff"]["stiffness"] = float("inf")
-    raw["tissue"]["continuum"].update(dict(law="ogden", ogden_alpha=ALPHA, max_force=20.0,
-                                           max_moment=0.6), **continuum)
-    return raw
-
-
-def _write(tmp_path, raw, name="cfg.yaml"):
-    path = tmp_path / name
-    path.write_text(yaml.safe_dump(raw))
-    return path
+    return small_human_cuff(**{**dict(law="ogden", ogden_alpha=ALPHA, max_force=20.0,
+                                      max_moment=0.6), **continuum})
 
 
 def _log(folder, rows=1):
@@ -145,7 +133,7 @@ def test_simulate_cli_names_the_ogden_law(identified, tmp_path, monkeypatch):
     monkeypatch.setattr(store, "IDENTIFY_LEVEL", 1)
     monkeypatch.setattr("phri_spring.physics.hyper_reduced.identify",
                         lambda *a, **k: pytest.fail("identified again"))
-    cfg = _write(tmp_path, _raw())
+    cfg = write_yaml(tmp_path, _raw())
     out = tmp_path / "forces.csv"
     res = run_phri("simulate", cfg, _log(tmp_path, 50), "--arm", "coupled", "-o", out)
     assert res.exit_code == 0, stderr_of(res)
@@ -195,7 +183,7 @@ def test_an_indenter_curve_no_exponent_matches_is_one_line(tmp_path, monkeypatch
     raw = _raw()
     raw["tissue"]["continuum"].pop("ogden_alpha")
     raw["tissue"]["stiffening"] = 5000.0
-    cfg = _write(tmp_path, raw)
+    cfg = write_yaml(tmp_path, raw)
     res = run_phri("simulate", cfg, _log(tmp_path), "--arm", "coupled", "-o",
                    tmp_path / "f.csv")
     assert_one_line_error(res, str(cfg), "tissue.stiffening", "Ogden", code=1)
@@ -219,7 +207,7 @@ def test_bad_ogden_configs_are_one_line(tmp_path, monkeypatch, edit, key):
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
     raw = _raw()
     edit(raw)
-    cfg = _write(tmp_path, raw)
+    cfg = write_yaml(tmp_path, raw)
     out = tmp_path / "forces.csv"
     res = run_phri("simulate", cfg, _log(tmp_path), "--arm", "coupled", "-o", out)
     assert_one_line_error(res, key, code=1)
@@ -241,7 +229,7 @@ def test_the_identification_shows_its_progress_on_a_terminal(tmp_path, monkeypat
 
     monkeypatch.setattr(store, "load_or_identify", fake)
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
-    cfg = _write(tmp_path, _raw())
+    cfg = write_yaml(tmp_path, _raw())
     for terminal in (True, False):
         monkeypatch.setattr("phri_cli._common.progress_enabled", lambda flag: terminal)
         res = run_phri("simulate", cfg, _log(tmp_path), "--arm", "coupled", "-o",
