@@ -238,3 +238,47 @@ def test_the_identification_shows_its_progress_on_a_terminal(tmp_path, monkeypat
         assert res.exit_code == 1 and "stopped after the rays" in err
         shown = "identifying the hyperelastic tissue model" in err and "(2 / 2 rays)" in err
         assert shown == terminal, err
+
+
+def test_an_indenter_fe_that_fails_is_one_line_naming_the_exponent(tmp_path, monkeypatch):
+    """The indenter FE that identifies alpha stops before the fit range (an element
+    inverts): one line that says to give tissue.continuum.ogden_alpha instead."""
+    from phri_spring.errors import ConvergenceError
+    from phri_spring.physics import fe_punch_ogden
+
+    def fake(*a, **k):
+        raise ConvergenceError("the punch curve stopped at 4.2 mm (element inverted)")
+
+    monkeypatch.setattr(fe_punch_ogden, "ogden_alpha_from_stiffening", fake)
+    monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
+    raw = _raw()
+    raw["tissue"]["continuum"].pop("ogden_alpha")
+    cfg = write_yaml(tmp_path, raw)
+    res = run_phri("simulate", cfg, _log(tmp_path), "--arm", "coupled", "-o",
+                   tmp_path / "f.csv")
+    assert_one_line_error(res, str(cfg), "tissue.continuum.ogden_alpha", "4.2 mm", code=1)
+    assert not (tmp_path / "f.csv").exists()
+
+
+def test_a_reduction_that_misses_its_held_out_rays_is_refused(tmp_path, monkeypatch):
+    """A fit whose held-out patch forces are more than 5 % off (replaced here: no FE runs)
+    is refused in one line naming the range; the identification is cached all the same."""
+    _needs_fe()
+    from phri_spring.io import hyper_reduction as store
+    from phri_spring.physics import hyper_reduced as hr
+
+    def fake(cuff, linear, *, max_force, max_moment, rays, progress=None, **kw):
+        n, K = cuff.geometry.n, len(hr.EXPONENTS)
+        return hr.HyperReduction(scale=np.ones(6), wrench=np.zeros((K, 6)),
+                                 normal=np.zeros((K, n)), patch=np.zeros((K, 6 * n)),
+                                 range_map=np.eye(6), info=dict(held_out_normal_pct=9.3))
+
+    monkeypatch.setattr(hr, "identify", fake)
+    monkeypatch.setattr(store, "IDENTIFY_LEVEL", 1)
+    monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
+    cfg = write_yaml(tmp_path, _raw())
+    res = run_phri("simulate", cfg, _log(tmp_path), "--arm", "coupled", "-o",
+                   tmp_path / "f.csv")
+    assert_one_line_error(res, str(cfg), "tissue.continuum.max_force", "9.3 %", code=1)
+    assert not (tmp_path / "f.csv").exists()
+    assert list((tmp_path / "cache").glob("ogden-*.npz"))
