@@ -365,7 +365,12 @@ def test_neighbour_warm_start_reaches_the_cold_starts_equilibrium(m):
         assert warm.converged.all() and cold.converged.all()
         peak = np.abs(cold.forces).max()
         np.testing.assert_allclose(warm.forces, cold.forces, rtol=0, atol=1e-8 * peak)
-        np.testing.assert_array_equal(warm.contact, cold.forces > 0)
+        # the same contact set, read where the compression is clear of round-off (two
+        # iterations may leave an element at 1e-15 m on either side of zero)
+        g = model.delta0 + cold.u @ model.b.T
+        clear = np.abs(g) > 1e-9 * np.abs(g).max()
+        np.testing.assert_array_equal(warm.contact[clear], cold.contact[clear])
+        assert clear.mean() > 0.99
         res = warm.forces @ model.b + warm.u @ model.K_s - (W + model.W_pre)
         assert np.abs(res).max() <= 1e-8 * peak
 
