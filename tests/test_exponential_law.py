@@ -389,3 +389,50 @@ def test_a_sample_that_does_not_converge_is_no_start_for_its_neighbours():
     assert sol.converged[others].all()
     peak = np.abs(ref.forces).max()
     np.testing.assert_allclose(sol.forces[others], ref.forces[others], rtol=0, atol=1e-8 * peak)
+
+
+@pytest.mark.parametrize("beta", [0.3, 1.0, 40.0, 900.0])
+def test_force_and_tangent_together_match_the_law(beta):
+    """The solver's inner loop asks the law for force and tangent at once
+    (``force_tangent``: exp(x) - 1 for beta >= 1 1/m, expm1 below). Against the closed
+    form F = (k0/beta) expm1(beta d) from 0 to 3 cm: the tangent to 1e-13, the force to
+    1e-12 of itself plus the rounding of exp(x) - 1, F' * 2.2e-16 / beta (a force far
+    below the solver's tolerance)."""
+    k0 = np.array([500.0, 3000.0, 9e4])
+    law = ExponentialLaw(k0, stiffening=beta)
+    d = np.concatenate([[0.0], np.geomspace(1e-12, 0.03, 400)])[:, None] * np.ones(3)
+    Fc, Ft = law.force_tangent(d)
+    exact = k0 / beta * np.expm1(beta * d)
+    np.testing.assert_allclose(Ft, k0 * np.exp(beta * d), rtol=1e-13, atol=0)
+    assert np.all(np.abs(Fc - exact) <= 1e-12 * exact + 4 * 2.2e-16 * Ft / beta)
+    assert np.all(Fc[0] == 0.0)
+
+
+def test_rows_resumed_from_another_block_end_where_one_pass_ends():
+    """The warm start stops each block after one Newton step and iterates the rows left
+    together (docs/model.md 11.1): stopping and resuming must not change a row's path.
+    The arithmetic per row is the same; only the blocks the matrix products see differ, so
+    the answers agree to round-off and the rows take the same steps."""
+    from phri_spring.physics import spring_newton as sn
+
+    model = _harmony_exponential(300.0, kc_scale=0.5)
+    W = _stepped_log(300, 21) + model.W_pre
+    u_one = np.zeros((len(W), 6))
+    u_two = u_one.copy()
+    conv1, its1, f1, left1 = sn._mixed_rows(model, W, u_one)
+    first = 3        # from rest: some rows settle within three steps, others do not
+    conv2, its2, f2, left = sn._mixed_rows(model, W, u_two, steps=first)
+    assert left is not None and 0 < len(left[0]) < len(W)
+    rows, dt, tol2 = left
+    ur = u_two[rows]
+    c3, i3, f3, _ = sn._mixed_rows(model, W[rows], ur, dt, steps=sn.MIXED_ITERATIONS - first,
+                                   tol2=tol2)
+    u_two[rows], conv2[rows], its2[rows] = ur, c3, its2[rows] + i3
+    f2[rows[c3]] = f3[c3]
+    np.testing.assert_array_equal(conv1, conv2)
+    assert np.abs(its1 - its2).max() <= 1
+    assert conv1.mean() > 0.9
+    peak = np.abs(f1[conv1]).max()
+    np.testing.assert_allclose(f2[conv1], f1[conv1], rtol=0, atol=1e-9 * peak)
+    np.testing.assert_allclose(u_two[conv1], u_one[conv1], rtol=0,
+                               atol=1e-9 * np.abs(u_one[conv1]).max())

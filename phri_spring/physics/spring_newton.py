@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from .active_set import solve_warm
-from .spd6 import spd_solve_batched
+from .spd6 import spd_factor_batched, spd_solve_batched, spd_solve_factored
 
 __all__ = ["solve_newton", "solve_newton_warm", "NEWTON_ITERATIONS", "RESIDUAL_RTOL"]
 
@@ -66,7 +66,7 @@ def _state(model, u, r):
 MIXED_ITERATIONS = 12
 
 
-def _mixed_rows(model, r, u, dt0=None):
+def _mixed_rows(model, r, u, dt0=None, steps=None, tol2=None):
     """Undamped Newton on displacements and tissue shares together, in place on u (m, 6).
 
     The series element's split d = d_t + F(d_t) c is not solved exactly at every step
@@ -81,13 +81,29 @@ def _mixed_rows(model, r, u, dt0=None):
     converged after MIXED_ITERATIONS steps (or overflow) are returned as such and the
     caller solves them by the damped Newton on the energy.
 
+    Parameters
+    ----------
+    dt0 : ndarray, shape (m, n), optional
+        Starting tissue shares (taken over and changed in place); None: linearised about
+        the preload.
+    steps : int, optional
+        Newton steps at most (None: MIXED_ITERATIONS). A caller may stop early and
+        resume the rows left (``left``) together with those of other blocks, so that the
+        few rows of a block that need more steps do not each cost a pass over the block.
+    tol2 : ndarray, shape (m,), optional
+        Squared residual tolerances of resumed rows (None: 1e-10 of the start's force scale).
+
     Returns
     -------
     conv : ndarray of bool, shape (m,)
     its : ndarray of int, shape (m,)
     f : ndarray, shape (m, n)
         Element forces of the converged rows (undefined elsewhere).
+    left : (rows, dt, tol2) or None
+        The rows still iterating after ``steps`` steps (indices into r), their tissue
+        shares and tolerances; their displacements are where the iteration stopped, in u.
     """
+    steps = MIXED_ITERATIONS if steps is None else steps
     law = model.element.law
     c = np.broadcast_to(model.element._c_cuff, (model.n,))
     b, bT, bb, Ks = model.geometry.b, model.bT, model.bb, model.K_s
@@ -107,14 +123,14 @@ def _mixed_rows(model, r, u, dt0=None):
         dt /= 1.0 + kt_pre * c
         dt += dt_pre
     else:
-        dt = np.array(dt0, dtype=float)
+        dt = dt0          # the caller's start, taken over
     np.minimum(dt, g, out=dt)
     np.maximum(dt, 0.0, out=dt)
     idx = np.arange(m)
     u_act = u
-    scale = None
+    full = True            # no row has left yet: q is computed straight into f_out
     with np.errstate(over="ignore", invalid="ignore"):
-        for step in range(MIXED_ITERATIONS + 1):
+        for step in range(steps + 1):
             F, Ft = law.force_tangent(dt)
             denom = c * Ft
             denom += 1.0
@@ -124,15 +140,20 @@ def _mixed_rows(model, r, u, dt0=None):
             np.subtract(g, h, out=h)
             h -= dt
             corr = ks * h
-            q = F + corr
+            q = np.add(F, corr, out=f_out if full else F)
             Ku = u_act @ Ks
             res = q @ b
             res += Ku
             res -= r
-            if scale is None:
+            if tol2 is None:
                 # the force scale of the equations, taken at the start: it moves by a few
                 # per cent at most over the iteration, and sets a tolerance of 1e-10 of it
-                scale = (np.abs(q) @ abs_b + np.abs(Ku) + np.abs(r)).max(axis=1)
+                # (the row maximum of a column-major copy: numpy reduces a short last axis
+                # an order of magnitude slower than it copies it)
+                scale = np.abs(q) @ abs_b
+                scale += np.abs(Ku)
+                scale += np.abs(r)
+                scale = np.asfortranarray(scale).max(axis=1)
                 tol2 = np.square(RESIDUAL_RTOL * np.maximum(scale, 1e-300))
             # sums of squares bound the largest entries: a slightly stricter test
             ok = (np.einsum("ij,ij->i", res, res) <= tol2) & (
@@ -140,13 +161,19 @@ def _mixed_rows(model, r, u, dt0=None):
             if ok.any():
                 done = idx[ok]
                 conv[done] = True
-                f_out[done] = q[ok]
+                if not full:
+                    f_out[done] = q[ok]
                 keep = ~ok
                 if not keep.any():
+                    idx = idx[:0]
+                    break
+                if step == steps:       # the last pass: only what ``left`` returns
+                    idx, dt, tol2 = idx[keep], dt[keep], tol2[keep]
                     break
                 idx, u_act, r, tol2 = idx[keep], u_act[keep], r[keep], tol2[keep]
                 g, dt, ks, h, denom, res = g[keep], dt[keep], ks[keep], h[keep], denom[keep], res[keep]
-            if step == MIXED_ITERATIONS:
+                full = False
+            if step == steps:
                 break
             its[idx] += 1
             Hf = bb.T @ ks.T
@@ -162,7 +189,8 @@ def _mixed_rows(model, r, u, dt0=None):
             # the share stays within [0, d] (0 for an element out of contact, d < 0)
             np.minimum(dt, g, out=dt)
             np.maximum(dt, 0.0, out=dt)
-    return conv, its, f_out
+    left = (idx, dt, tol2) if idx.size else None
+    return conv, its, f_out, left
 
 
 def _newton_rows(model, r, u, max_steps):
@@ -205,8 +233,9 @@ def _newton_rows(model, r, u, max_steps):
     return its, conv
 
 
-#: rows per pass of the mixed iteration: its (rows x elements) temporaries stay in cache
-_MIXED_ROWS = 2048
+#: rows per pass of the mixed iteration at 21 elements (scaled by 21 / n): numpy's cost
+#: per call small against the work, the (rows x elements) temporaries still in the cache
+_MIXED_ROWS = 4096
 
 
 def _solve_rows(model, r, u, max_iterations, forces_out=None):
@@ -219,7 +248,7 @@ def _solve_rows(model, r, u, max_iterations, forces_out=None):
     rows = max(1, _MIXED_ROWS * 21 // max(model.n, 1))
     for s in range(0, m, rows):
         e = min(m, s + rows)
-        conv[s:e], its[s:e], f[s:e] = _mixed_rows(model, r[s:e], u[s:e])
+        conv[s:e], its[s:e], f[s:e], _ = _mixed_rows(model, r[s:e], u[s:e])
     if not conv.all():
         rest = np.flatnonzero(~conv)
         _damped_rows(model, r, rest, u_start[rest], u, its, conv, f, max_iterations)
@@ -286,46 +315,77 @@ def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state
 WARM_STRIDE = 8
 
 
-def _neighbour_start(model, r, idx, us, fs, k0, k1, rows_per_segment):
+def _end_shares(model, fs):
+    """Tissue shares and series tangents (0 where open) of solved rows with forces fs."""
+    el = model.element
+    dts = el.law.compression_at(fs)
+    return dts, el._with_cuff(el.law.tangent(dts)) * (fs > 0.0)
+
+
+def _between_view(a, idx, k0, k1):
+    """The rows of a (m, ...) strictly between solved rows idx[k0] .. idx[k1] as a view
+    (positions, segments, ...), position-major like :func:`_neighbour_start`'s rows; None
+    unless every segment there is WARM_STRIDE rows long."""
+    segs = k1 - k0
+    if idx[k1] - idx[k0] != segs * WARM_STRIDE:
+        return None
+    blk = a[idx[k0]:idx[k1]].reshape(segs, WARM_STRIDE, *a.shape[1:])[:, 1:]
+    return np.swapaxes(blk, 0, 1)
+
+
+def _neighbour_start(model, r, idx, us, ends, k0, k1, rows_per_segment):
     """Starts of the rows between solved rows idx[k] and idx[k + 1], k0 <= k < k1.
 
-    Segments k0..k1-1 each hold ``rows_per_segment`` rows, evenly spaced between their two
-    solved ends (segment-major order). Displacements and tissue shares are interpolated
-    between the ends; the part of the row's wrench the interpolation misses (noise, a
-    step) is added through the tangent interpolated the same way: one Newton step of the
+    Segments k0..k1-1 each hold ``rows_per_segment`` rows, evenly spaced between their
+    two solved ends; ``ends`` is :func:`_end_shares` of the solved rows. The rows come
+    position-major (the first row of every segment, then the second, ...), so that the
+    per-segment quantities broadcast over long contiguous runs. Displacements and tissue
+    shares are interpolated between the ends; the part of the row's wrench the
+    interpolation misses (noise, a step) is added through the segment's tangent (the mean
+    of its ends' series tangents, one 6x6 factor for all its rows): a step of the
     linearised equilibrium and split, so a row on a smooth stretch of a log starts within
-    the curvature of the law of its answer.
+    the curvature of the law of its answer. The shares are not clipped to [0, d] here:
+    :func:`_mixed_rows` does that.
+
+    Returns
+    -------
+    rows (m,), u0 (m, 6), dt0 (m, n), and the rows' right-hand sides r[rows] (m, 6)
     """
     el = model.element
     sl = slice(k0, k1 + 1)
-    dts = el.law.compression_at(fs[sl])                     # the tissue's share of each force
-    kts = el._with_cuff(el.law.tangent(dts)) * (fs[sl] > 0.0)   # series tangent, 0 where open
+    dts, kts = ends[0][sl], ends[1][sl]
     span = idx[k0 + 1] - idx[k0]
-    w = (np.arange(1, rows_per_segment + 1) / span)[None, :, None]
+    segs, per = k1 - k0, rows_per_segment
+    w = (np.arange(1, per + 1) / span)[:, None, None]
 
     def between(a):
-        """(segments * rows_per_segment, columns): a interpolated along each segment."""
-        lo = a[:-1, None, :]
-        out = (a[1:, None, :] - lo) * w
+        """(rows_per_segment * segments, columns): a interpolated along each segment."""
+        lo = a[:-1]
+        out = (a[1:] - lo)[None] * w
         out += lo
         return out.reshape(-1, a.shape[1])
 
-    rows = (idx[k0:k1, None] + np.arange(1, rows_per_segment + 1)).ravel()
-    u0, dt0, kt = between(us[sl]), between(dts), between(kts)
-    dr = r[rows] - between(r[idx[sl]])
-    H = model.bb.T @ kt.T
+    rows = (idx[k0:k1][None, :] + np.arange(1, per + 1)[:, None]).ravel()
+    u0, dt0 = between(us[sl]), between(dts)
+    view = _between_view(r, idx, k0, k1)
+    r_rows = r[rows] if view is None else view.reshape(-1, 6)    # (a copy either way)
+    dr = r_rows - between(r[idx[sl]])
+    kseg = kts[:-1] + kts[1:]
+    kseg *= 0.5
+    H = model.bb.T @ kseg.T
     H += model.K_s.reshape(36, 1)
-    du = spd_solve_batched(H, dr)
+    # right-hand sides as (component, position, segment): the factors (segments,)
+    # broadcast along the contiguous last axis
+    drT = np.ascontiguousarray(dr.reshape(per, segs, 6).transpose(2, 0, 1))
+    du = np.stack(spd_solve_factored(spd_factor_batched(H), drT), axis=-1).reshape(-1, 6)
     u0 += du
-    dg = du @ model.bT
     # the share takes the tissue's part of the extra compression: dg (1 - c k_s)
-    kt *= dg
-    kt *= el._c_cuff
-    dg -= kt
-    dt0 += dg
-    np.minimum(dt0, model.delta0 + u0 @ model.bT, out=dt0)
-    np.maximum(dt0, 0.0, out=dt0)
-    return rows, u0, dt0
+    dg = (du @ model.bT).reshape(per, segs, -1)
+    kseg *= el._c_cuff
+    np.subtract(1.0, kseg, out=kseg)
+    dg *= kseg
+    dt0 += dg.reshape(per * segs, -1)
+    return rows, u0, dt0, r_rows
 
 
 def _cold(model, system, r, carry, max_iterations):
@@ -344,7 +404,8 @@ def solve_newton_warm(model, system, r, carry, max_iterations: int):
     its active set by :func:`~phri_spring.physics.active_set.solve_warm` on
     ``system``, then :func:`solve_newton`). Every other row starts from its two solved
     neighbours (:func:`_neighbour_start`), chunk by chunk so the temporaries stay in
-    cache; rows the mixed iteration leaves go to the damped Newton from that start;
+    cache; the rows one Newton step does not settle go on together after all chunks;
+    rows the mixed iteration leaves go to the damped Newton from their start;
     rows next to a neighbour that did not converge start from the tangent model.
 
     Returns
@@ -372,21 +433,49 @@ def solve_newton_warm(model, system, r, carry, max_iterations: int):
     groups = [(k, min(k + per, n_seg - 1), WARM_STRIDE - 1) for k in range(0, n_seg - 1, per)]
     groups.append((n_seg - 1, n_seg, idx[-1] - idx[-2] - 1))
     seg_ok = conv_s[:-1] & conv_s[1:]
+    ends = _end_shares(model, fs)
     cold, retry, retry_u = [], [], []
+    later = []      # (rows, starts, shares, tolerances) of the rows one step left
+    first = min(1, MIXED_ITERATIONS)
     for k0, k1, per_seg in groups:
         if per_seg == 0:
             continue
-        ok = np.repeat(seg_ok[k0:k1], per_seg)
-        rows, u0, dt0 = _neighbour_start(model, r, idx, us, fs, k0, k1, per_seg)
+        ok = np.tile(seg_ok[k0:k1], per_seg)     # rows position-major
+        rows, u0, dt0, r_rows = _neighbour_start(model, r, idx, us, ends, k0, k1, per_seg)
         if not ok.all():      # an end that did not converge is no start: those start cold
             cold.append(rows[~ok])
-            rows, u0, dt0 = rows[ok], u0[ok], dt0[ok]
+            rows, u0, dt0, r_rows = rows[ok], u0[ok], dt0[ok], r_rows[ok]
         u_start = u0.copy()
-        cr, itr, fr = _mixed_rows(model, r[rows], u0, dt0)
-        u[rows], f[rows], its[rows], conv[rows] = u0, fr, itr, cr
-        if not cr.all():
-            retry.append(rows[~cr])
-            retry_u.append(u_start[~cr])
+        cr, itr, fr, left = _mixed_rows(model, r_rows, u0, dt0, steps=first)
+        views = [_between_view(a, idx, k0, k1) for a in (u, f, its, conv)] if ok.all() \
+            else [None]
+        if views[0] is not None:      # strided writes instead of scatters through rows
+            for v, x in zip(views, (u0, fr, itr, cr)):
+                v[...] = x.reshape(v.shape)
+        else:
+            u[rows], f[rows], its[rows], conv[rows] = u0, fr, itr, cr
+        if left is not None:
+            li, dtl, toll = left
+            later.append((rows[li], u_start[li], dtl, toll))
+    if later:
+        # most rows settle in one step; the few that do not (a load step, a contact
+        # change) go on together, in chunks of their own, instead of one short pass each
+        rows_l = np.concatenate([x[0] for x in later])
+        start_l = np.concatenate([x[1] for x in later])
+        dt_l = np.concatenate([x[2] for x in later])
+        tol_l = np.concatenate([x[3] for x in later])
+        chunk = max(1, _MIXED_ROWS * 21 // max(n, 1))
+        for s in range(0, len(rows_l), chunk):
+            rr = rows_l[s:s + chunk]
+            ur = u[rr]
+            cr, itr, fr, _ = _mixed_rows(model, r[rr], ur, dt_l[s:s + chunk],
+                                         steps=MIXED_ITERATIONS - first, tol2=tol_l[s:s + chunk])
+            u[rr], conv[rr] = ur, cr
+            its[rr] += itr
+            f[rr[cr]] = fr[cr]
+            if not cr.all():
+                retry.append(rr[~cr])
+                retry_u.append(start_l[s:s + chunk][~cr])
     if retry:
         _damped_rows(model, r, np.concatenate(retry), np.concatenate(retry_u), u, its, conv,
                      f, max_iterations)

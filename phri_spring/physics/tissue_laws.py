@@ -34,6 +34,7 @@ True
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import ClassVar
 
 import numpy as np
@@ -286,9 +287,27 @@ class ExponentialLaw(TissueLaw):
         with np.errstate(over="ignore"):
             return np.where(d >= 0.0, self.k0 * np.exp(self._x(d)), 0.0)
 
-    def force_tangent(self, d):
-        # one expm1 for both: F = (k0/beta) expm1(x), F' = k0 (1 + expm1(x)); d >= 0 here
+    #: stiffening rate [1/m] from which :meth:`force_tangent` takes exp(x) - 1 for expm1(x)
+    _EXP_BETA = 1.0
+
+    @cached_property
+    def _k0_over_beta(self):
+        """k0 / beta where every element stiffens at >= _EXP_BETA, else None."""
         beta = self.params["stiffening"]
+        return self.k0 / beta if bool(np.all(beta >= self._EXP_BETA)) else None
+
+    def force_tangent(self, d):
+        # one exponential for both: F = (k0/beta) expm1(x), F' = k0 (1 + expm1(x)); d >= 0
+        beta = self.params["stiffening"]
+        if self._k0_over_beta is not None:
+            # exp is cheaper than expm1; exp(x) - 1 loses up to one rounding of exp(x),
+            # F' eps / beta <= F' * 2.2e-16 m for beta >= 1 1/m: a force of a compression
+            # far below anything the solver resolves (its tolerance is 1e-10 of the forces)
+            E = np.exp(beta * d)
+            Ft = self.k0 * E
+            E -= 1.0
+            E *= self._k0_over_beta
+            return E, Ft
         em = np.expm1(beta * d)
         stiffens = beta > 0
         if stiffens.all():
