@@ -69,12 +69,17 @@ def log(msg):
     print(f"[{time.strftime('%H:%M:%S')}] {msg}", file=sys.stderr, flush=True)
 
 
-def config(law="neo_hookean", alpha=None):
+def config(law="neo_hookean", alpha=None, max_force=None, max_moment=None):
     raw = yaml.load(PRESET.read_text(), Loader=_StrictSafeLoader)
     raw["cuff"]["stiffness"] = float("inf")
     raw["tissue"]["continuum"]["law"] = law
     if alpha is not None:
         raw["tissue"]["continuum"]["ogden_alpha"] = float(alpha)
+    # the identified range (the law's default where not given)
+    if max_force is not None:
+        raw["tissue"]["continuum"]["max_force"] = float(max_force)
+    if max_moment is not None:
+        raw["tissue"]["continuum"]["max_moment"] = float(max_moment)
     return config_from_dict(raw, path=PRESET, base_dir=PRESET.parent)
 
 
@@ -167,9 +172,13 @@ def main(argv=None):
     ap.add_argument("--law", default="neo_hookean", choices=["neo_hookean", "ogden"])
     ap.add_argument("--ogden-alpha", type=float, default=None)
     ap.add_argument("--reference", default=str(REFERENCE), help="the FE reference's JSON")
+    ap.add_argument("--max-force", type=float, default=None,
+                    help="tissue.continuum.max_force [N] (default: the law's)")
+    ap.add_argument("--max-moment", type=float, default=None,
+                    help="tissue.continuum.max_moment [N*m] (default: the law's)")
     args = ap.parse_args(argv)
     ref = json.loads(Path(args.reference).read_text())
-    cfg = config(args.law, args.ogden_alpha)
+    cfg = config(args.law, args.ogden_alpha, args.max_force, args.max_moment)
     linear3 = _linear_coupled_model(cfg, cache_dir=args.cache_dir, level=3)
     levels = [int(v) for v in args.levels.split(",")]
     models = {L: reduced(cfg, linear3, L, args.cache_dir) for L in levels}
