@@ -262,7 +262,8 @@ def test_friction_with_a_nonlinear_law_is_refused():
                     friction_coefficient=0.5)
 
 
-def test_coupled_patch_releases_and_comes_back_on_a_load_cycle():
+def _coupled_push_cycle():
+    """A coupled cuff (Gaussian-coupled patch compliance) pushed to 60 N and back."""
     g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
     d2 = np.sum((g.points[:, None, :] - g.points[None, :, :]) ** 2, axis=-1)
     rot = np.diag([1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3])
@@ -272,6 +273,11 @@ def test_coupled_patch_releases_and_comes_back_on_a_load_cycle():
     F = np.concatenate([np.linspace(0, 60, 80), np.linspace(60, 0, 80)])
     W = np.zeros((len(F), 6))
     W[:, 2] = F                       # a one-sided push through the cuff's centre
+    return model, W
+
+
+def test_coupled_patch_releases_and_comes_back_on_a_load_cycle():
+    model, W = _coupled_push_cycle()
     sol = solve(model, W)
     assert sol.converged.all()
     _check_laws(model, W, sol, MU)
@@ -280,3 +286,56 @@ def test_coupled_patch_releases_and_comes_back_on_a_load_cycle():
     # the push is symmetric about the z axis plane x = 0: rows A and C mirror each other
     f = sol.forces.reshape(-1, 3, 7)
     np.testing.assert_allclose(f[:, 0], f[:, 2], atol=1e-9 * f.max())
+
+
+def test_a_stalled_newton_takes_a_state_it_visited_once_checked(monkeypatch):
+    """Around an event the semismooth Newton can cycle between states (with one BLAS
+    thread a sample of this cycle, where a sliding patch lifts off, did and was flagged).
+    Each state the iteration visited is then solved exactly and checked like any answer.
+    Forced here by calling every step that does not halve the residual a stall: the
+    states it rescues are the full iteration's answers, and it rescues some."""
+    model, W = _coupled_push_cycle()
+    ref = solve(model, W)
+    rescued = []
+    inner = friction_events._visited_states
+
+    def spy(*args):
+        out = inner(*args)
+        rescued.append(out[-1])
+        return out
+
+    monkeypatch.setattr(friction_events, "_STALL", 1)
+    monkeypatch.setattr(friction_events, "_visited_states", spy)
+    sol = solve(model, W)
+    assert sum(rescued) >= 1
+    ok = sol.converged & ref.converged
+    assert ok.mean() >= 0.99
+    np.testing.assert_allclose(sol.forces[ok], ref.forces[ok], rtol=0,
+                               atol=1e-9 * np.abs(ref.forces).max())
+    _check_laws(model, W, sol, MU)
+
+
+def test_a_sample_the_event_solver_cannot_reach_is_reached_in_smaller_increments(monkeypatch):
+    """A sample whose event solve fails is retried in 2, 4, ... 16 equal increments of the
+    wrench from the last consistent state (a finer path). With an event solver that refuses
+    any increment over 0.4 N (the cycle steps 0.76 N), every sample still converges, obeys
+    the laws, and differs from the one-increment path only by the finer path's slip
+    (under 1e-3 of the peak force)."""
+    model, W = _coupled_push_cycle()
+    ref = solve(model, W)
+    inner = friction.solve_event_coupled
+    refused = []
+
+    def small_steps_only(form, r, state, u0=None):
+        if np.abs(r - form.T.T @ state.P).max() > 0.4:
+            refused.append(1)
+            return state.u, state.P, state, 1, False
+        return inner(form, r, state, u0)
+
+    monkeypatch.setattr(friction, "solve_event_coupled", small_steps_only)
+    sol = solve(model, W)
+    assert len(refused) > 50
+    assert sol.converged.all()
+    _check_laws(model, W, sol, MU)
+    np.testing.assert_allclose(sol.forces, ref.forces, rtol=0,
+                               atol=1e-3 * np.abs(ref.forces).max())

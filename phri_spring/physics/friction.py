@@ -164,6 +164,8 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + 1e-300
     f_tol = STATE_RTOL * scale
     x_tol = f_tol * (xs / fs)
+    # the wrench at which ``state`` was reached: its forces balance it
+    r_state = form.T.T @ state.P
     i = 0
     width = _FIRST_BLOCK
     while i < m:
@@ -180,18 +182,48 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     u[i:i + k], P[i:i + k] = ub, Pb
                     cls[i:i + k] = state.cls
                     state.u, state.P = ub[-1].copy(), Pb[-1].copy()
+                    r_state = r[i + k - 1]
                     i += k
                     if i >= m:
                         break
         event = solve_event_elements if form.diagonal else solve_event_coupled
         ui, Pi, new, its, ok = event(form, r[i], state, guess)
+        if not ok:
+            # the semismooth Newton can cycle between two sets where a patch sits on the
+            # edge of its cone or of contact: the wrench since the last consistent state is
+            # then applied in 2, 4, ... equal increments (a finer path), each from the last
+            ui, Pi, new, more, ok = _substeps(event, form, r_state, r[i], state, 1)
+            its += more
         solves[i] = its
         if ok:
             u[i], P[i], cls[i] = ui, Pi, new.cls
-            state = new
+            state, r_state = new, r[i]
         else:
             conv[i] = False
             u[i], P[i] = np.nan, np.nan
             cls[i] = RELEASED
         i += 1
     return u, P, cls, solves, conv, state
+
+
+#: most halvings of a sample's increment before it is flagged (2**4 = 16 increments)
+_MAX_HALVINGS = 4
+
+
+def _substeps(event, form, r0, r1, state, depth):
+    """From ``state`` (consistent at r0) to r1 in two halves, each halved again where it
+    fails, down to _MAX_HALVINGS: (u, P, state, solves, ok) at r1."""
+    solves = 0
+    mid = 0.5 * (r0 + r1)
+    for a, b in ((r0, mid), (mid, r1)):
+        u, P, new, its, ok = event(form, b, state, None)
+        solves += its
+        if not ok:
+            if depth >= _MAX_HALVINGS:
+                return u, P, state, solves, False
+            u, P, new, its, ok = _substeps(event, form, a, b, state, depth + 1)
+            solves += its
+            if not ok:
+                return u, P, state, solves, False
+        state = new
+    return u, P, state, solves, True

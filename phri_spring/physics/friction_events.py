@@ -231,10 +231,14 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
             J[tan[sl].ravel()] = block.reshape(-1, N + 6)
         return J
 
+    def classes(info):
+        touch, slide = info[0], info[1]
+        return np.where(touch, np.where(slide, SLIDING, STUCK), RELEASED).astype(state.cls.dtype)
+
     x = np.concatenate([state.P, state.u if u0 is None else u0])
     phi, info = residual(x)
     res = np.abs(phi).max()
-    its, history = 0, []
+    its, history, seen = 0, [], []
     while its < _MAX_STEPS and res > tol:
         if len(history) >= _STALL and res > 0.5 * history[-_STALL]:
             break
@@ -246,9 +250,29 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
             dx = np.linalg.lstsq(J, -phi, rcond=1e-12)[0]
         x, cand, res = _line_search(residual, x, dx, res)
         phi, info = cand
-    touch, slide, yh = info[0], info[1], info[2]
-    cls = np.where(touch, np.where(slide, SLIDING, STUCK), RELEASED).astype(state.cls.dtype)
-    return _finish(form, r, state, cls, z0, yh, its, res <= 1e3 * tol)
+        seen.append((classes(info), info[2]))
+    out = _finish(form, r, state, classes(info), z0, info[2], its, res <= 1e3 * tol)
+    if out[-1] or res <= 1e3 * tol:
+        return out
+    return _visited_states(form, r, state, z0, seen[-2 * _STALL:], its)
+
+
+def _visited_states(form, r, state, z0, seen, its):
+    """A stalled iteration's way out. Around an event (a sliding patch lifting off, one
+    reaching its cone) the semismooth Newton can cycle between states without settling,
+    and which way round-off tips it differs between CPUs and BLAS builds. Each state it
+    visited, latest first, is solved exactly and checked as any answer is (equilibrium,
+    cone, compression, no penetration, slip direction); the first that passes is the
+    answer. ``seen``: (classes, slip directions) per step."""
+    tried = []
+    for cls, yh in reversed(seen):
+        if any(np.array_equal(cls, t) for t in tried):
+            continue
+        tried.append(cls)
+        out = _finish(form, r, state, cls, z0, yh, its + len(tried), True)
+        if out[-1]:
+            return out
+    return state.u, state.P, state, its + len(tried), False
 
 
 def _finish(form, r, state, cls, z0, s_dir, its, close):
