@@ -8,18 +8,21 @@ the 6-unknown equation H u + dR(u / s) = W, solved by Newton's method from the r
 model's tangent at the preload; its patch forces follow from u. The plates are bonded:
 a patch's normal force can be negative (the skin held on the plate), every patch is in
 contact. Samples whose pose leaves the identified range, or whose iteration fails, are
-flagged as not converged (NaN forces), as every model does.
+flagged as not converged (NaN forces), as every model does. The corrections are averaged
+over the mirror planes the cuff and its linear model share
+(:mod:`phri_spring.physics.hyper_symmetry`; ``reduction.info["mirror_planes"]``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 
 import numpy as np
 
 from .coupled import CoupledModel
 from .hyper_reduced import HyperReduction, _low, features, linear_bonded, solve_poses
+from .hyper_symmetry import mirror_group, symmetrized
 from .model import OnGeometry, field_unit
 
 __all__ = ["HyperCoupledModel", "CONTINUUM_LAWS"]
@@ -41,7 +44,7 @@ class HyperCoupledModel(OnGeometry):
         The linear coupled model of the same config with a rigid cuff: the linear part,
         the preload (``delta``, ``f0``, ``W_pre``), the patches.
     reduction : HyperReduction
-        The identified corrections.
+        The identified corrections, averaged over the cuff's mirror planes.
     H : ndarray, shape (6, 6)
         The linear bonded stiffness T^T C_t^-1 T [N/m, N/rad; N*m/m, N*m/rad].
     N : ndarray, shape (n, 6)
@@ -75,6 +78,11 @@ class HyperCoupledModel(OnGeometry):
         lin = linear_bonded(self.linear)
         for name in ("H", "N", "G", "P0"):
             object.__setattr__(self, name, lin[name])
+        if "mirror_planes" not in self.reduction.info:
+            planes, group = mirror_group(self.geometry.points, lin)
+            red = symmetrized(self.reduction, group)
+            object.__setattr__(self, "reduction", replace(
+                red, info={**red.info, "mirror_planes": planes}))
         object.__setattr__(self, "inv_area_kpa", 1.0 / (1000.0 * self.geometry.areas))
 
     @property
