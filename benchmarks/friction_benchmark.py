@@ -32,6 +32,7 @@ sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.physics.solver import solve  # noqa: E402
+from phri_spring.physics.tissue_laws import LinearLaw  # noqa: E402
 from phri_spring.workflows.common import cuff_wrench, model_from_config  # noqa: E402
 
 COLS = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
@@ -67,6 +68,10 @@ def main():
     rows = []
     for preset in ("human_upper_arm", "harmony_upper_arm"):
         base = load_config(ROOT / "configs" / f"{preset}.yaml")
+        # friction runs with the linear tissue law (the human preset's tissue.stiffening
+        # asks for the exponential one, which friction does not take yet)
+        base = dataclasses.replace(base, tissue_law="linear", tissue_law_class=LinearLaw,
+                                   tissue_law_parameters={})
         fric = dataclasses.replace(base, friction_coefficient=args.mu)
         W = cuff_wrench(base, W_lc)
         for arm in ("compliant", "rigid", "coupled"):
@@ -97,6 +102,8 @@ def main():
 
         raw = yaml.safe_load((ROOT / "configs" / "human_upper_arm.yaml").read_text())
         raw.setdefault("interface", {})["friction_coefficient"] = args.mu
+        raw["tissue"].pop("stiffening", None)        # the linear law, as above
+        raw["tissue"].pop("law", None)
         cfg = tmp / "human_mu.yaml"
         cfg.write_text(yaml.safe_dump(raw))
         cmd = [sys.executable, "-c", "from phri_cli.main import phri; phri()", "simulate",
