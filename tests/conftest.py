@@ -73,6 +73,21 @@ def small_human_cuff(**continuum) -> dict:
     return raw
 
 
+def cached_identification_only(mp, cache=None) -> None:
+    """The hyperelastic arm from an identification the test already made: identification
+    at the tests' mesh level 1, any new identification a failure; with ``cache``, also the
+    cache folder the commands use (PHRI_SPRING_CACHE). ``mp``: a pytest MonkeyPatch."""
+    import pytest
+
+    from phri_spring.io import hyper_reduction as store
+
+    if cache is not None:
+        mp.setenv("PHRI_SPRING_CACHE", str(cache))
+    mp.setattr(store, "IDENTIFY_LEVEL", 1)
+    mp.setattr("phri_spring.physics.hyper_reduced.identify",
+               lambda *a, **k: pytest.fail("identified again"))
+
+
 def write_yaml(folder, raw: dict, name: str = "cfg.yaml") -> Path:
     """``raw`` written as YAML to folder / name; the path."""
     import yaml

@@ -22,8 +22,8 @@ import pytest
 from phri_spring.io.config import config_from_dict
 from phri_spring.physics.solver import Solver, solve
 
-from conftest import (REPO, assert_one_line_error, run_phri, small_human_cuff,
-                      stderr_of, write_yaml)
+from conftest import (REPO, assert_one_line_error, cached_identification_only, run_phri,
+                      small_human_cuff, stderr_of, write_yaml)
 
 HUMAN = REPO / "configs" / "human_upper_arm.yaml"
 
@@ -90,14 +90,11 @@ def test_identified_model_matches_the_fe_off_its_rays(identified):
 
 
 def test_second_build_reads_the_cache(identified):
-    from phri_spring.io import hyper_reduction as store
     from phri_spring.workflows.common import coupled_model
 
     model, _, cache, cfg = identified
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(store, "IDENTIFY_LEVEL", 1)
-        mp.setattr("phri_spring.physics.hyper_reduced.identify",
-                   lambda *a, **k: pytest.fail("identified again"))
+        cached_identification_only(mp)
         again = coupled_model(cfg, cache_dir=cache, level=1)
     assert again.reduction.info["source"] == "cache"
     for name, arr in model.reduction.arrays().items():
@@ -107,13 +104,8 @@ def test_second_build_reads_the_cache(identified):
 
 
 def test_simulate_cli_runs_the_neo_hookean_arm(identified, tmp_path, monkeypatch):
-    from phri_spring.io import hyper_reduction as store
-
     _, _, cache, _ = identified
-    monkeypatch.setenv("PHRI_SPRING_CACHE", str(cache))
-    monkeypatch.setattr(store, "IDENTIFY_LEVEL", 1)
-    monkeypatch.setattr("phri_spring.physics.hyper_reduced.identify",
-                        lambda *a, **k: pytest.fail("identified again"))
+    cached_identification_only(monkeypatch, cache)
     # the CLI builds the linear part at the shipped level: its identification is at level 1
     cfg = write_yaml(tmp_path, _raw())
     t = np.arange(0, 1.0, 0.01)

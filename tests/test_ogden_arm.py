@@ -24,8 +24,8 @@ import pytest
 from phri_spring.io.config import config_from_dict
 from phri_spring.physics.solver import solve
 
-from conftest import (REPO, assert_one_line_error, run_phri, small_human_cuff,
-                      stderr_of, write_yaml)
+from conftest import (REPO, assert_one_line_error, cached_identification_only, run_phri,
+                      small_human_cuff, stderr_of, write_yaml)
 
 HUMAN = REPO / "configs" / "human_upper_arm.yaml"
 ALPHA = 8.0
@@ -126,13 +126,8 @@ def test_reduction_keys_tell_the_laws_apart():
 
 
 def test_simulate_cli_names_the_ogden_law(identified, tmp_path, monkeypatch):
-    from phri_spring.io import hyper_reduction as store
-
     _, _, cache, _ = identified
-    monkeypatch.setenv("PHRI_SPRING_CACHE", str(cache))
-    monkeypatch.setattr(store, "IDENTIFY_LEVEL", 1)
-    monkeypatch.setattr("phri_spring.physics.hyper_reduced.identify",
-                        lambda *a, **k: pytest.fail("identified again"))
+    cached_identification_only(monkeypatch, cache)
     cfg = write_yaml(tmp_path, _raw())
     out = tmp_path / "forces.csv"
     res = run_phri("simulate", cfg, _log(tmp_path, 50), "--arm", "coupled", "-o", out)

@@ -135,7 +135,7 @@ def symmetrized(red: HyperReduction, group) -> HyperReduction:
     patch = np.zeros((K, n, 6))
     P3 = red.patch.reshape(K, n, 6)
     for sigma, perm, c in group:
-        sk = np.prod(np.where(EXPONENTS > 0, sigma[None, :] ** EXPONENTS, 1.0), axis=1)
+        sk = np.prod(sigma[None, :] ** EXPONENTS, axis=1)    # +-1 per monomial
         wrench += sk[:, None] * red.wrench * sigma[None, :]
         normal += sk[:, None] * red.normal[:, perm]
         patch += sk[:, None, None] * c[None, None, :] * P3[:, perm, :]

@@ -238,6 +238,11 @@ def _newton_rows(model, r, u, max_steps):
 _MIXED_ROWS = 4096
 
 
+def _pass_rows(n: int) -> int:
+    """Rows per pass of the mixed iteration for a model of n elements."""
+    return max(1, _MIXED_ROWS * 21 // max(n, 1))
+
+
 def _solve_rows(model, r, u, max_iterations, forces_out=None):
     """The mixed iteration on every row, the damped one from u on the rows it leaves."""
     m = len(r)
@@ -245,7 +250,7 @@ def _solve_rows(model, r, u, max_iterations, forces_out=None):
     conv = np.empty(m, dtype=bool)
     its = np.empty(m, dtype=np.int64)
     f = np.empty((m, model.n)) if forces_out is None else forces_out
-    rows = max(1, _MIXED_ROWS * 21 // max(model.n, 1))
+    rows = _pass_rows(model.n)
     for s in range(0, m, rows):
         e = min(m, s + rows)
         conv[s:e], its[s:e], f[s:e], _ = _mixed_rows(model, r[s:e], u[s:e])
@@ -317,9 +322,8 @@ WARM_STRIDE = 8
 
 def _end_shares(model, fs):
     """Tissue shares and series tangents (0 where open) of solved rows with forces fs."""
-    el = model.element
-    dts = el.law.compression_at(fs)
-    return dts, el._with_cuff(el.law.tangent(dts)) * (fs > 0.0)
+    dts = model.element.law.compression_at(fs)
+    return dts, model.element.tangent_from_share(dts)
 
 
 def _between_view(a, idx, k0, k1):
@@ -429,7 +433,7 @@ def solve_newton_warm(model, system, r, carry, max_iterations: int):
     # the rows between, segment by segment: every segment but the last holds
     # WARM_STRIDE - 1 rows; chunks of whole segments keep the temporaries in cache
     n_seg = len(idx) - 1
-    per = max(1, _MIXED_ROWS * 21 // (max(n, 1) * (WARM_STRIDE - 1)))
+    per = max(1, _pass_rows(n) // (WARM_STRIDE - 1))
     groups = [(k, min(k + per, n_seg - 1), WARM_STRIDE - 1) for k in range(0, n_seg - 1, per)]
     groups.append((n_seg - 1, n_seg, idx[-1] - idx[-2] - 1))
     seg_ok = conv_s[:-1] & conv_s[1:]
@@ -464,7 +468,7 @@ def solve_newton_warm(model, system, r, carry, max_iterations: int):
         start_l = np.concatenate([x[1] for x in later])
         dt_l = np.concatenate([x[2] for x in later])
         tol_l = np.concatenate([x[3] for x in later])
-        chunk = max(1, _MIXED_ROWS * 21 // max(n, 1))
+        chunk = _pass_rows(n)
         for s in range(0, len(rows_l), chunk):
             rr = rows_l[s:s + chunk]
             ur = u[rr]
