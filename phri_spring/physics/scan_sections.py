@@ -25,11 +25,15 @@ For row r at x_r and angular location j at theta_j with angular span width_j:
   |theta - theta_j| <= width_j / 2 (every triangle clipped by the four planes; only the
   surface connected to the row's outline counts).
 - **turning** psi_e: the angle through which the outline's tangent turns between the rays at
-  theta_j -+ width_j / 2. On a polyline the tangent angle is a staircase (it turns only at the
-  vertices), so the count of vertices between two rays would make psi jump by a facet angle;
-  instead the tangent angle is averaged over an arc of +-h around each ray's crossing
-  (``smoothing`` h, see :func:`scan_element_geometry`). Neighbouring elements share their ray,
-  so the turnings of a closed ring sum to exactly 2 pi, as the hoop preload needs.
+  theta_j -+ width_j / 2, as the difference of the tangent angle at the two crossings. On a
+  polyline the tangent angle is a staircase (it turns only at the vertices), so summing the
+  exterior angles between two rays would make psi jump by a facet angle as a ray passes a
+  vertex. Instead each segment's direction is taken at its midpoint with the angle linear in
+  arc between midpoints (exact on a regular polygon), averaged over +-h around the crossing
+  against a scan's noise (``smoothing`` h, see :func:`scan_element_geometry`), with the
+  averaging's h^2 error cancelled by combining the averages over h and 2h. Neighbouring
+  elements share their ray, so the turnings of a closed ring sum to exactly 2 pi, as the
+  hoop preload needs.
 - **arc** s_e: the outline's length between the same two rays.
 """
 
@@ -328,7 +332,12 @@ def _ray_hits(yz: np.ndarray, angles: np.ndarray):
 
 def _mean_tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
     """The outline's tangent angle averaged over the arc [pos - h, pos + h], continuous along
-    the loop (unwrapped from its first segment, + 2 pi w per turn, w the winding)."""
+    the loop (unwrapped from its first segment, + the loop's total turning per turn).
+
+    Each segment's direction holds at its midpoint and the angle goes linearly from one
+    midpoint to the next: a polyline's corner turns over the half-segments beside it, as the
+    smooth curve it samples does, and on a regular polygon the angle is exactly linear in arc.
+    """
     d = np.roll(yz, -1, axis=0) - yz
     length = np.linalg.norm(d, axis=1)
     keep = length > 0
@@ -337,12 +346,31 @@ def _mean_tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray
     # the whole loop's turning: the unwrapped turns plus the one at the closing vertex
     total = (phi[-1] - phi[0]) + ((phi[0] - phi[-1] + np.pi) % (2 * np.pi) - np.pi)
     perimeter = length.sum()
-    # four turns of the loop (from -1 to 3 perimeters), so that pos +- h stays in the table
-    seg_len = np.tile(length, 4)
-    seg_phi = np.concatenate([phi + i * total for i in (-1, 0, 1, 2)])
-    s_nodes = np.concatenate([[0.0], np.cumsum(seg_len)]) - perimeter
-    integral = np.concatenate([[0.0], np.cumsum(seg_len * seg_phi)])
-    return (np.interp(pos + h, s_nodes, integral) - np.interp(pos - h, s_nodes, integral)) / (2 * h)
+    # the angle at the segments' midpoints over five turns of the loop (-2 .. 3 perimeters),
+    # so that pos +- 2h stays inside the table
+    mid = np.concatenate([[0.0], np.cumsum(length)[:-1]]) + length / 2
+    node_s = np.concatenate([mid + i * perimeter for i in range(-2, 3)])
+    node_phi = np.concatenate([phi + i * total for i in range(-2, 3)])
+    # its integral, exact for the piecewise-linear angle: trapezoids, then within a piece
+    seg = np.diff(node_s)
+    slope = np.diff(node_phi) / seg
+    cum = np.concatenate([[0.0], np.cumsum(seg * (node_phi[:-1] + node_phi[1:]) / 2)])
+
+    def integral(s):
+        k = np.clip(np.searchsorted(node_s, s, side="right") - 1, 0, len(seg) - 1)
+        ds = s - node_s[k]
+        return cum[k] + ds * node_phi[k] + 0.5 * slope[k] * ds ** 2
+
+    return (integral(pos + h) - integral(pos - h)) / (2 * h)
+
+
+def _tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
+    """The outline's tangent angle at arc positions ``pos``, smoothed over +-h and +-2h.
+
+    A window average misses the true angle by h^2/6 times the rate of change of curvature (an
+    ellipse's changes all along); (4 avg_h - avg_2h) / 3 cancels that term and keeps the
+    averaging of the polyline's staircase and of a scan's noise."""
+    return (4 * _mean_tangent_angle(yz, pos, h) - _mean_tangent_angle(yz, pos, 2 * h)) / 3
 
 
 def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
@@ -430,7 +458,7 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
         else:
             h = float(smoothing)
         used_h[r] = h
-        turning[sl] = (_mean_tangent_angle(yz, pos_hi, h) - _mean_tangent_angle(yz, pos_lo, h))
+        turning[sl] = _tangent_angle(yz, pos_hi, h) - _tangent_angle(yz, pos_lo, h)
         # areas: the surface connected to this outline, clipped to each element's band
         comp = mesh.face_component[loop.face[0]]
         fx = v[f[:, 0], 0], v[f[:, 1], 0], v[f[:, 2], 0]
