@@ -11,7 +11,8 @@ For row r at x_r and angular location j at theta_j with angular span width_j:
   e.g. a scan with an inner surface), oriented by increasing theta. Each loop point lies on a
   mesh edge; vertices exactly on the plane count as lying on its +x side (a consistent
   symbolic perturbation: every crossing triangle then has exactly two crossing edges, so the
-  loops close whatever the rounding).
+  loops close whatever the rounding; a vertex within 1e-6 of the scan's size of the plane
+  counts as on it, so that rounding cannot make the section zigzag about a ring of vertices).
 - **point** p_e: where the ray from the axis at theta_j leaves the outline (the farthest
   crossing, should the outline not be star-shaped there).
 - **normal** n_e: minus the outward vertex normals (each the angle-weighted mean of its
@@ -53,6 +54,11 @@ __all__ = ["ScanElements", "ScanMesh", "SectionLoop", "prepare_scan_mesh", "sect
 #: the least half-length of the arc the outline's tangent angle is averaged over [m]: larger
 #: than a scan's noise and facets, small against an element's arc
 DEFAULT_SMOOTHING = 0.002
+
+
+#: distance from a section's plane, as a fraction of the scan's size, within which a vertex
+#: counts as on the plane (well above float32 rounding, far below any scanner's resolution)
+_ON_PLANE = 1e-6
 
 
 @dataclass(frozen=True, eq=False)
@@ -175,13 +181,34 @@ def prepare_scan_mesh(vertices, faces) -> ScanMesh:
     return ScanMesh(v, f, edges, face_edges, _unit(normals), labels[:nf])
 
 
+def _spaced(yz: np.ndarray, fraction: float) -> np.ndarray:
+    """Which points of a closed polyline to keep so that none lies within ``fraction`` of the
+    median segment of the last one kept (or of the first point).
+
+    A mesh vertex on the plane ends several crossing edges, all giving the same point: one is
+    kept (a segment of no length has no direction)."""
+    gap = np.linalg.norm(np.roll(yz, -1, axis=0) - yz, axis=1)
+    tol = fraction * float(np.median(gap[gap > 0])) if np.any(gap > 0) else 0.0
+    keep = np.zeros(len(yz), bool)
+    last = yz[0]
+    keep[0] = True
+    for i in range(1, len(yz)):
+        if np.hypot(*(yz[i] - last)) >= tol and np.hypot(*(yz[i] - yz[0])) >= tol:
+            keep[i], last = True, yz[i]
+    return keep
+
+
 def section_loops(mesh: ScanMesh, x: float):
     """The plane section x = ``x`` of the mesh: (closed loops, number of open chains).
 
     Each closed loop is a :class:`SectionLoop`; open chains (the plane crosses a hole or a
     boundary of the mesh, or a non-manifold edge) are only counted.
     """
-    above = mesh.vertices[:, 0] >= x
+    # a vertex within rounding of the plane counts as on it, as one exactly on it does: a
+    # ring of vertices scattered +-1e-8 about the plane (float32 STL, a turned frame) would
+    # otherwise zigzag across it, cutting the ring's edges into pieces of any length
+    tol = _ON_PLANE * float(np.ptp(mesh.vertices, axis=0).max())
+    above = mesh.vertices[:, 0] >= x - tol
     crossing_edge = above[mesh.edges[:, 0]] != above[mesh.edges[:, 1]]
     fe_cross = crossing_edge[mesh.face_edges]
     faces = np.flatnonzero(fe_cross.any(axis=1))
@@ -222,12 +249,10 @@ def section_loops(mesh: ScanMesh, x: float):
             continue
         e, seq_face = nodes[np.asarray(seq)], np.asarray(seq_face)
         a, b = mesh.edges[e, 0], mesh.edges[e, 1]
-        t = (x - v[a, 0]) / (v[b, 0] - v[a, 0])
+        t = np.clip((x - v[a, 0]) / (v[b, 0] - v[a, 0]), 0.0, 1.0)
+        t = np.where(np.abs(v[b, 0] - x) <= tol, 1.0, np.where(np.abs(v[a, 0] - x) <= tol, 0.0, t))
         yz = (v[a] + t[:, None] * (v[b] - v[a]))[:, 1:]
-        # a mesh vertex on the plane ends several crossing edges: one point, kept once (a
-        # segment of no length has no direction for the tangent)
-        gap = np.linalg.norm(yz - np.roll(yz, 1, axis=0), axis=1)
-        keep = gap > 1e-9 * np.ptp(yz, axis=0).max()
+        keep = _spaced(yz, 1e-6)
         if keep.sum() < 3:
             continue
         # the segment from a kept point runs along the last dropped one's face
@@ -365,11 +390,10 @@ def _mean_tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray
 
 
 def _tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
-    """The outline's tangent angle at arc positions ``pos``, smoothed over +-h and +-2h.
+    """The outline's tangent angle at arc positions ``pos``, smoothed over +-h.
 
     A window average misses the true angle by h^2/6 times the rate of change of curvature (an
-    ellipse's changes all along); (4 avg_h - avg_2h) / 3 cancels that term and keeps the
-    averaging of the polyline's staircase and of a scan's noise."""
+    ellipse's changes all along): (4 avg_h - avg_2h) / 3 cancels that term."""
     return (4 * _mean_tangent_angle(yz, pos, h) - _mean_tangent_angle(yz, pos, 2 * h)) / 3
 
 
