@@ -264,3 +264,173 @@ def test_a_full_ring_turns_once_and_covers_the_band(start, count, bumps):
     assert g.arcs.sum() == pytest.approx(perimeter, rel=1e-9)
     band = clipped_area(v[f], [((1.0, 0, 0), 0.0013 - 0.015), ((-1.0, 0, 0), -(0.0013 + 0.015))])
     assert g.areas.sum() == pytest.approx(band, rel=1e-9)
+
+
+# ----------------------------------------------------------------------------- bad scans
+def cylinder_stl(path, radius=0.045, n=90, unit_scale=1.0, drop=None):
+    """A cylinder of ``radius`` [m] around x in [-0.07, 0.07], written in metres * unit_scale."""
+    v, f = tube(n, np.linspace(-0.07, 0.07, 15), circle(radius))
+    if drop is not None:
+        f = np.delete(f, drop, axis=0)
+    write_binary_stl(path, v * unit_scale, f)
+    return v, f
+
+
+def one_line(exc_info, *names):
+    text = str(exc_info.value)
+    assert "\n" not in text and "Traceback" not in text
+    for name in names:
+        assert name in text, (name, text)
+    return text
+
+
+def refused(tmp_path, cfg, cls=DataError, rows=ROWS_X):
+    with pytest.raises(cls) as info:
+        scan_elements(cfg, rows, np.full(len(rows), 0.025), THETA, SPAN, tmp_path)
+    # a file's problem is a DataError, not a config one; a key's is a ConfigError (or its
+    # ConfigTypeError for a value of the wrong type)
+    assert type(info.value) is cls if cls is DataError else isinstance(info.value, cls)
+    return info
+
+
+@pytest.mark.parametrize("content, expected", [
+    (b"", "empty file"),
+    (b"hello, this is a text file\n" * 20, "not an STL mesh"),
+    (b"\x89PNG\r\n\x1a\n" + bytes(range(256)) * 4, "not an STL mesh"),
+    (b"solid limb\nthis is no facet\nendsolid limb\n", "limb.stl"),
+])
+def test_a_file_that_is_no_mesh_is_refused_in_one_line(tmp_path, content, expected):
+    (tmp_path / "limb.stl").write_bytes(content)
+    info = refused(tmp_path, scan_cfg("limb.stl"))
+    one_line(info, "limb.stl", expected)
+
+
+def test_truncated_binary_stl(tmp_path):
+    cylinder_stl(tmp_path / "full.stl")
+    data = (tmp_path / "full.stl").read_bytes()
+    (tmp_path / "limb.stl").write_bytes(data[: len(data) - 37])
+    text = one_line(refused(tmp_path, scan_cfg("limb.stl")), "limb.stl", "truncated")
+    assert f"{len(data) - 37:,}" in text
+
+
+def test_unknown_suffix_and_missing_file(tmp_path):
+    (tmp_path / "arm.png").write_bytes(b"\x89PNG\r\n\x1a\n" + bytes(100))
+    one_line(refused(tmp_path, scan_cfg("arm.png")), "arm.png", ".stl")
+    one_line(refused(tmp_path, scan_cfg("nowhere.stl"), ConfigError), "geometry.scan.file",
+             "nowhere.stl")
+
+
+def test_text_that_parses_to_nothing_as_obj(tmp_path):
+    (tmp_path / "limb.obj").write_text("# only a comment\nhello\n")
+    one_line(refused(tmp_path, scan_cfg("limb.obj")), "limb.obj", "no triangles")
+
+
+def test_a_hole_at_a_row_is_refused(tmp_path):
+    # the cylinder's faces between x = -0.03 and -0.02 around u = 0 (ring 4 -> 5, the first
+    # three quads) removed: row A's plane at x = -0.025 crosses the hole
+    n = 90
+    drop = np.concatenate([2 * (4 * n + np.arange(3)), 2 * (4 * n + np.arange(3)) + 1])
+    cylinder_stl(tmp_path / "limb.stl", n=n, drop=drop)
+    one_line(refused(tmp_path, scan_cfg("limb.stl")), "limb.stl", "row 0", "not closed")
+
+
+def test_an_axis_that_misses_the_limb(tmp_path):
+    cylinder_stl(tmp_path / "limb.stl")
+    info = refused(tmp_path, scan_cfg("limb.stl", origin=[0.0, 0.1, 0.0]))
+    one_line(info, "limb.stl", "encloses the axis")
+    # an axis across the limb: the planes x = x_r cut it as lines, not around the axis
+    info = refused(tmp_path, scan_cfg("limb.stl", axis=[0, 1, 0], y_axis=[0, 0, 1]))
+    one_line(info, "limb.stl")
+
+
+def test_rows_or_bands_past_the_scan(tmp_path):
+    cylinder_stl(tmp_path / "limb.stl")
+    one_line(refused(tmp_path, scan_cfg("limb.stl"), rows=np.array([0.0, 0.2])),
+             "limb.stl", "does not cut the scan")
+    one_line(refused(tmp_path, scan_cfg("limb.stl"), rows=np.array([0.0, 0.065])),
+             "limb.stl", "reaches past the scan's end")
+
+
+@pytest.mark.parametrize("scale, unit, size", [(1000.0, "m", "140 m"), (1.0, "mm", "0.00014 m")])
+def test_the_wrong_unit_is_refused_with_the_plausible_range(tmp_path, scale, unit, size):
+    # a cylinder 140 mm long written in mm but declared m, or written in m but declared mm
+    cylinder_stl(tmp_path / "limb.stl", unit_scale=scale)
+    info = refused(tmp_path, scan_cfg("limb.stl", unit=unit), ConfigError)
+    one_line(info, "geometry.scan.unit", "limb.stl", size, "0.01 m to 3 m")
+
+
+@pytest.mark.parametrize("key, value, expected", [
+    ("axis", [0, 0, 0], "non-zero"),
+    ("y_axis", [0, 0, 0], "non-zero"),
+    ("y_axis", [2, 0, 0], "parallel"),
+    ("y_axis", [1, 1e-5, 0], "parallel"),
+    ("origin", [0, 0], "3 numbers"),
+    ("axis", "x", "3 numbers"),
+    ("unit", "cm", "mm, m"),
+    ("max_triangles", 0, "whole number"),
+    ("smoothing", -1.0, "length > 0"),
+])
+def test_bad_keys_name_the_key(tmp_path, key, value, expected):
+    cylinder_stl(tmp_path / "limb.stl")
+    info = refused(tmp_path, scan_cfg("limb.stl", **{key: value}), ConfigError)
+    assert isinstance(info.value, ConfigError)
+    one_line(info, f"geometry.scan.{key}", expected)
+
+
+def test_missing_and_unknown_keys(tmp_path):
+    cylinder_stl(tmp_path / "limb.stl")
+    cfg = scan_cfg("limb.stl")
+    del cfg["y_axis"]
+    one_line(refused(tmp_path, cfg, ConfigError), "geometry.scan", "missing key 'y_axis'")
+    one_line(refused(tmp_path, scan_cfg("limb.stl", units="mm"), ConfigError), "geometry.scan",
+             "unknown key 'units'")
+
+
+@pytest.mark.parametrize("suffix", [".stl", "_ascii.stl", ".obj", ".ply"])
+def test_too_many_triangles_are_refused(tmp_path, suffix):
+    v, f = tube(90, np.linspace(-0.07, 0.07, 15), circle(0.045))
+    name = "limb" + suffix
+    if suffix == ".stl":
+        write_binary_stl(tmp_path / name, v, f)
+    elif suffix == "_ascii.stl":
+        write_ascii_stl(tmp_path / name, v, f)
+    else:
+        trimesh.Trimesh(v, f, process=False).export(tmp_path / name)
+    # 2520 triangles; 10 allowed: binary STL and PLY are refused from their header, the text
+    # formats from their size
+    info = refused(tmp_path, scan_cfg(name, max_triangles=10))
+    one_line(info, name, "geometry.scan.max_triangles")
+
+
+def test_a_huge_binary_stl_header_is_refused_before_reading(tmp_path, monkeypatch):
+    # a binary STL whose size matches 3 million triangles, made sparse: refused from its header
+    path = tmp_path / "limb.stl"
+    with open(path, "wb") as fh:
+        fh.write(b"x" * 80 + struct.pack("<I", 3_000_000))
+        fh.truncate(84 + 50 * 3_000_000)
+    monkeypatch.setitem(sys.modules, "trimesh", None)     # never reached
+    with pytest.raises(DataError) as info:
+        read_mesh(path)
+    one_line(info, "limb.stl", "3,000,000 triangles", "1,000,000")
+
+
+def test_missing_trimesh_names_the_extra(tmp_path, monkeypatch):
+    cylinder_stl(tmp_path / "limb.stl")
+    monkeypatch.setitem(sys.modules, "trimesh", None)
+    with pytest.raises(UsageError) as info:
+        load_scan(scan_cfg("limb.stl"), tmp_path)
+    one_line(info, 'pip install "phri-spring[scan]"')
+
+
+def test_load_scan_places_the_mesh_in_the_cuff_frame(tmp_path):
+    rotation, origin = turned_frame()
+    v, f = tube(30, np.linspace(-0.07, 0.07, 5), ellipse_section)
+    write_binary_stl(tmp_path / "limb.stl", to_scan_mm(v, rotation, origin), f)
+    cfg = scan_cfg("limb.stl", unit="mm", origin=origin.tolist(),
+                   axis=(-3 * rotation[:, 0]).tolist(), y_axis=rotation[:, 2].tolist())
+    scan = load_scan(cfg, tmp_path)
+    # axis reversed and +y along the old +z: the cuff's (x, y, z) are the old (-x, z, y)
+    want = np.column_stack([-v[:, 0], v[:, 2], v[:, 1]])
+    got = scan.vertices[np.lexsort(scan.vertices.T)]
+    np.testing.assert_allclose(got, want[np.lexsort(want.T)], atol=1e-7)
+    assert scan.faces.shape == f.shape

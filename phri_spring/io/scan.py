@@ -221,15 +221,20 @@ def _scan_config(cfg, config_path):
         raise ConfigTypeError(f"expected the path of a mesh file, got {cfg['file']!r}",
                               file=config_path, key=f"{SCAN_KEY}.file")
     limit = cfg.get("max_triangles", MAX_TRIANGLES)
-    if isinstance(limit, bool) or not isinstance(limit, int) or limit < 1:
+    if isinstance(limit, bool) or not isinstance(limit, int):
         raise ConfigTypeError(f"expected a whole number >= 1, got {limit!r}", file=config_path,
                               key=f"{SCAN_KEY}.max_triangles")
+    if limit < 1:
+        raise ConfigError(f"expected a whole number >= 1, got {limit!r}", file=config_path,
+                          key=f"{SCAN_KEY}.max_triangles")
     smoothing = cfg.get("smoothing")
     if smoothing is not None and (isinstance(smoothing, bool)
-                                  or not isinstance(smoothing, (int, float))
-                                  or not np.isfinite(smoothing) or smoothing <= 0):
+                                  or not isinstance(smoothing, (int, float))):
         raise ConfigTypeError(f"expected a length > 0 [m], got {smoothing!r}", file=config_path,
                               key=f"{SCAN_KEY}.smoothing")
+    if smoothing is not None and not (np.isfinite(smoothing) and smoothing > 0):
+        raise ConfigError(f"expected a length > 0 [m], got {smoothing!r}", file=config_path,
+                          key=f"{SCAN_KEY}.smoothing")
     return limit, smoothing
 
 
