@@ -118,7 +118,7 @@ def _check_stl(path: Path, size: int, max_triangles: int) -> None:
                             f"{max_triangles:,} allowed ({SCAN_KEY}.max_triangles); expected a "
                             "decimated scan", file=path)
         return
-    if head.lstrip()[:5].lower() == b"solid":           # ASCII
+    if head.lstrip()[:5].lower() == b"solid" and not _binary(path):   # ASCII
         if size > _TEXT_BYTES_PER_TRIANGLE[".stl"] * max_triangles:
             raise DataError(f"the ASCII STL is {size / 1e6:.0f} MB, more than "
                             f"{max_triangles:,} triangles ({SCAN_KEY}.max_triangles) can take; "
@@ -128,6 +128,12 @@ def _check_stl(path: Path, size: int, max_triangles: int) -> None:
                     f"binary STL of {n_bin:,} triangles, as its header says, has "
                     f"{84 + 50 * n_bin:,} bytes, this file {size:,}: truncated or another "
                     "kind of file)", file=path)
+
+
+def _binary(path: Path) -> bool:
+    """Whether the file's first 4 KB hold a NUL byte (no text mesh does)."""
+    with open(path, "rb") as fh:
+        return b"\0" in fh.read(4096)
 
 
 def _check_ply(path: Path, max_triangles: int) -> None:
@@ -164,8 +170,12 @@ def read_mesh(path, *, max_triangles: int = MAX_TRIANGLES):
         raise DataError(f"cannot read the scan ({exc.strerror or exc})", file=path) from None
     if size == 0:
         raise DataError("empty file; expected a surface mesh", file=path)
+    kind = {".stl": "an STL", ".obj": "an OBJ", ".ply": "a PLY"}[suffix]
     if suffix == ".stl":
         _check_stl(path, size, max_triangles)
+    elif suffix == ".obj" and _binary(path):
+        raise DataError("not an OBJ mesh (binary content; expected OBJ text: v and f lines)",
+                        file=path)
     elif suffix == ".ply":
         _check_ply(path, max_triangles)
     if suffix != ".stl" and size > _TEXT_BYTES_PER_TRIANGLE[suffix] * max_triangles:
@@ -186,12 +196,13 @@ def read_mesh(path, *, max_triangles: int = MAX_TRIANGLES):
         raise DataError("not enough memory to read the scan; expected a decimated scan",
                         file=path) from None
     except Exception as exc:  # noqa: BLE001 - a third-party parser's failure is bad data
-        detail = str(exc).splitlines()[0][:120] if str(exc) else type(exc).__name__
-        raise DataError(f"cannot read as a {suffix[1:].upper()} mesh ({detail})",
-                        file=path) from None
+        detail = f"{type(exc).__name__}: {str(exc).splitlines()[0][:120]}" if str(exc) \
+            else type(exc).__name__
+        raise DataError(f"cannot read as {kind} mesh ({detail}); expected a triangle surface "
+                        "mesh of the limb", file=path) from None
     if len(faces) == 0 or len(vertices) < 3:
-        raise DataError(f"no triangles in the file; expected a {suffix[1:].upper()} surface "
-                        "mesh of the limb", file=path)
+        raise DataError(f"no triangles in the file; expected {kind} surface mesh of the limb",
+                        file=path)
     if len(faces) > max_triangles:
         raise DataError(f"the mesh has {len(faces):,} triangles, more than the "
                         f"{max_triangles:,} allowed ({SCAN_KEY}.max_triangles); expected a "

@@ -275,21 +275,22 @@ def axis_loop(mesh: ScanMesh, x: float, row: str = "") -> SectionLoop:
     loops that do not enclose the axis (the axis misses the limb).
     """
     where = f"{row + ' ' if row else ''}at x = {x:.4g} m"
+    of = f"of {where}" if row else where
     loops, n_open = section_loops(mesh, x)
     around = [lp for lp in loops if abs(lp.winding) == 1]
     if around:
         return max(around, key=lambda lp: abs(lp.area))
     lo, hi = mesh.vertices[:, 0].min(), mesh.vertices[:, 0].max()
     if not loops and not n_open:
-        raise ModelInputError(f"the plane of row {where} does not cut the scan (it spans x = "
+        raise ModelInputError(f"the plane {of} does not cut the scan (it spans x = "
                               f"{lo:.4g} .. {hi:.4g} m along the axis); expected the scan to "
                               "cover every row", "scan")
     if n_open:
-        raise ModelInputError(f"the section of row {where} is not closed around the axis "
+        raise ModelInputError(f"the section {of} is not closed around the axis "
                               f"({n_open} open piece{'s' * (n_open > 1)}: a hole or an edge of "
                               "the scan there); expected a closed limb surface at every row",
                               "scan")
-    raise ModelInputError(f"no loop of the section of row {where} encloses the axis (the axis "
+    raise ModelInputError(f"no loop of the section {of} encloses the axis (the axis "
                           "misses the limb there); expected origin and axis inside the limb",
                           "scan")
 
@@ -416,7 +417,7 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
         default per row: the larger of :data:`DEFAULT_SMOOTHING` and three median segments of
         the outline, at most a quarter of the row's shortest element arc.
     row_names : sequence of str, optional
-        Names of the rows for the error messages (default ``row 0``, ``row 1`` ...).
+        Labels of the rows for the error messages (``A`` gives ``row A``; default 0, 1 ...).
 
     Returns
     -------
@@ -441,7 +442,7 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
     if smoothing is not None and not (np.isfinite(smoothing) and smoothing > 0):
         raise ModelInputError(f"smoothing must be a length > 0 [m], got {smoothing!r}", "geometry")
     mesh = vertices if isinstance(vertices, ScanMesh) else prepare_scan_mesh(vertices, faces)
-    names = list(row_names) if row_names is not None else [f"row {r}" for r in range(len(xr))]
+    names = [f"row {r}" for r in (row_names if row_names is not None else range(len(xr)))]
     v, f = mesh.vertices, mesh.faces
     lo_ray, hi_ray = th - sp / 2, th + sp / 2
     n = len(xr) * len(th)
