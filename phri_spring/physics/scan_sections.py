@@ -154,7 +154,8 @@ def prepare_scan_mesh(vertices, faces) -> ScanMesh:
     # a face with a repeated vertex has no area and would join an edge to itself
     f = f[(f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 2] != f[:, 0])]
     cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
-    f, cross = f[np.linalg.norm(cross, axis=1) > 0], cross[np.linalg.norm(cross, axis=1) > 0]
+    solid = np.einsum("ij,ij->i", cross, cross) > 0
+    f, cross = f[solid], cross[solid]
     if len(f) == 0:
         raise ModelInputError("the mesh has no triangle of non-zero area", "scan")
     # outward = away from the axis: orient every triangle by the radial direction at its centroid
@@ -324,13 +325,24 @@ def _polygon_areas(poly: np.ndarray, count: np.ndarray) -> np.ndarray:
 def clipped_area(triangles: np.ndarray, planes) -> float:
     """Area of triangles (N, 3, 3) inside every half-space ``n . p >= c`` of ``planes``
     [(n (3,), c), ...] (exact: each triangle is clipped, Sutherland-Hodgman)."""
-    poly, count = triangles, np.full(len(triangles), 3)
+    triangles = np.asarray(triangles, float)
+    if len(triangles) == 0:
+        return 0.0
+    # only the triangles a plane cuts need clipping: the others are wholly in or out
+    dist = np.stack([triangles @ np.asarray(n, float) - c for n, c in planes])   # (P, N, 3)
+    outside = np.any(np.all(dist < 0, axis=2), axis=0)
+    inside = np.all(dist >= 0, axis=(0, 2))
+    whole = triangles[inside]
+    area = 0.5 * float(np.linalg.norm(np.cross(whole[:, 1] - whole[:, 0],
+                                               whole[:, 2] - whole[:, 0]), axis=1).sum())
+    poly = triangles[~inside & ~outside]
+    count = np.full(len(poly), 3)
     for normal, offset in planes:
         if len(poly) == 0:
-            return 0.0
+            return area
         poly, count = _clip(poly, count, poly @ np.asarray(normal, float) - offset)
         poly, count = poly[count >= 3], count[count >= 3]
-    return float(_polygon_areas(poly, count).sum()) if len(poly) else 0.0
+    return area + (float(_polygon_areas(poly, count).sum()) if len(poly) else 0.0)
 
 
 def _wedge_planes(lo: float, hi: float):
