@@ -3,7 +3,8 @@
 A tapered elliptic tube of about ``--triangles`` triangles is written as a binary STL in mm,
 then read (trimesh) and the paper's 21 elements are computed on it
 (``phri_spring.io.scan.scan_elements``). Prints the wall times of reading and of the elements,
-and the peak resident memory (single runs: wall time on a shared machine is noisy). Run from the repository root, e.g.
+and the peak resident memory (single runs: wall time on a shared machine is noisy). Run from
+the repository root, e.g.
 
     /usr/bin/time -v python benchmarks/scan_benchmark.py --triangles 1000000
 
@@ -34,7 +35,8 @@ def tube(n_around: int, n_rings: int):
     j = (i + 1) % n_around
     r = np.arange(n_rings - 1)[:, None] * n_around
     a, b = (r + i).ravel(), (r + j).ravel()
-    f = np.vstack([np.column_stack([a, b, b + n_around]), np.column_stack([a, b + n_around, a + n_around])])
+    f = np.vstack([np.column_stack([a, b, b + n_around]),
+                   np.column_stack([a, b + n_around, a + n_around])])
     return v, f
 
 

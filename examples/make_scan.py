@@ -61,7 +61,8 @@ def limb_mesh():
     u = 2 * np.pi * np.arange(AROUND) / AROUND
     shrink = xs * np.tan(np.radians(TAPER_DEG))
     a, b = A0 - shrink, B0 - shrink
-    bump = BULGE * np.exp(-((xs - 0.01) / 0.05) ** 2)[:, None] * np.maximum(np.cos(u), 0)[None, :] ** 2
+    along = np.exp(-((xs - 0.01) / 0.05) ** 2)
+    bump = BULGE * along[:, None] * np.maximum(np.cos(u), 0)[None, :] ** 2
     yp = (a[:, None] + bump) * np.cos(u)[None, :]
     zp = b[:, None] * np.sin(u)[None, :]
     phi = np.radians(ROTATION_DEG)

@@ -1,4 +1,4 @@
-"""3D limb scans as the cuff's surface (phri_spring/io/scan.py, phri_spring/physics/scan_sections.py).
+"""3D limb scans as the cuff's surface (io/scan.py, physics/scan_sections.py).
 
 The meshes are made here with numpy (tubes around the x axis) and written with ``struct`` /
 text (STL) or trimesh (OBJ, PLY). The references are closed forms of the same surfaces (the
@@ -17,8 +17,7 @@ from hypothesis import given, settings, strategies as st
 
 from phri_spring.errors import ConfigError, DataError, UsageError
 from phri_spring.io.scan import load_scan, read_mesh, scan_elements
-from phri_spring.physics.scan_sections import (clipped_area, prepare_scan_mesh,
-                                               scan_element_geometry)
+from phri_spring.physics.scan_sections import clipped_area, scan_element_geometry
 
 trimesh = pytest.importorskip("trimesh")
 
@@ -39,7 +38,8 @@ def tube(n_around: int, xs, section):
     j = (i + 1) % n_around
     faces = []
     for r in range(len(xs) - 1):
-        a, b, c, d = r * n_around + i, r * n_around + j, (r + 1) * n_around + i, (r + 1) * n_around + j
+        a, b = r * n_around + i, r * n_around + j
+        c, d = a + n_around, b + n_around
         faces += [np.column_stack([a, b, d]), np.column_stack([a, d, c])]
     return np.vstack(rings), np.vstack(faces)
 
@@ -142,7 +142,8 @@ def ellipse_reference(x, theta, lo, hi, width):
     r_t = r ** 3 * np.sin(P) * np.cos(P) * (1 / aa ** 2 - 1 / bb ** 2)
     r_x = r ** 3 * (np.cos(P) ** 2 * d / aa ** 3 + np.sin(P) ** 2 * d / bb ** 3)
     dx = np.stack([np.ones_like(X), r_x * np.cos(T), r_x * np.sin(T)], -1)
-    dt = np.stack([np.zeros_like(X), r_t * np.cos(T) - r * np.sin(T), r_t * np.sin(T) + r * np.cos(T)], -1)
+    dt = np.stack([np.zeros_like(X), r_t * np.cos(T) - r * np.sin(T),
+                   r_t * np.sin(T) + r * np.cos(T)], -1)
     dA = np.linalg.norm(np.cross(dx, dt), axis=-1)
     area = width / 2 * (hi - lo) / 2 * np.einsum("i,j,ij->", wgt, wgt, dA)
     return point, normal, area, turning, arc
