@@ -15,13 +15,16 @@ For row r at x_r and angular location j at theta_j with angular span width_j:
   counts as on it, so that rounding cannot make the section zigzag about a ring of vertices).
 - **point** p_e: where the ray from the axis at theta_j leaves the outline (the farthest
   crossing, should the outline not be star-shaped there).
-- **normal** n_e: minus the outward vertex normals (each the angle-weighted mean of its
-  triangles' unit normals) interpolated linearly along the triangle at p_e, normalised. The
-  face normal of the triangle hit would jump by a facet angle as the ray moves from one facet
-  to the next; the interpolated normal is continuous, exact on a cylinder, second order on a
-  smooth surface, and it carries the local taper (its x component) as the surface has it.
-  Triangle normals are oriented away from the axis one by one, so a file whose triangles are
-  wound inconsistently gives the same normals.
+- **normal** n_e: the inward unit normal of the scan around p_e: the area-weighted mean of
+  the triangles' unit normals, each weighted (1 - d^2 / r^2)^2 by the distance d of its
+  centroid from p_e, for r = h and r = 2h (``smoothing``), combined as (4 n_h - n_2h) / 3 to
+  cancel the mean's r^2 error on a curved surface. The two purely local choices, the face
+  normal of the triangle hit or vertex normals interpolated across it, carry a scan's
+  facet-scale noise straight into n_e (0.03 rad for 20 micrometres of noise on 0.8 mm facets,
+  against 0.004 here) and the first also jumps by a facet angle from one triangle to the next;
+  the weighted mean is continuous in p_e, exact on a cylinder to second order in the facet
+  angle, and carries the limb's local taper (its x component). Triangle normals are oriented
+  away from the axis one by one, so inconsistently wound triangles give the same normals.
 - **area** A_e: the exact area of the mesh inside the element's band |x - x_r| <= w_r / 2,
   |theta - theta_j| <= width_j / 2 (every triangle clipped by the four planes; only the
   surface connected to the row's outline counts).
@@ -51,9 +54,10 @@ from ..errors import ModelInputError
 __all__ = ["ScanElements", "ScanMesh", "SectionLoop", "prepare_scan_mesh", "section_loops",
            "axis_loop", "scan_element_geometry", "clipped_area", "DEFAULT_SMOOTHING"]
 
-#: the least half-length of the arc the outline's tangent angle is averaged over [m]: larger
-#: than a scan's noise and facets, small against an element's arc
-DEFAULT_SMOOTHING = 0.002
+#: the least smoothing length h [m]: the half-length of the arc the outline's tangent angle
+#: is averaged over, and the radius the surface normal is averaged over (then 2h for both):
+#: larger than a scan's noise and facets, small against an element
+DEFAULT_SMOOTHING = 0.004
 
 
 #: distance from a section's plane, as a fraction of the scan's size, within which a vertex
@@ -80,7 +84,7 @@ class ScanElements:
     outlines : tuple of ndarray, each (k, 2)
         Per row, the outline's (y, z) points [m], by increasing theta, not repeating the first.
     smoothing : ndarray, shape (rows,)
-        The half-length h [m] the tangent angle was averaged over, per row.
+        The smoothing length h [m] used for the turning and the normals, per row.
     """
 
     points: np.ndarray
@@ -100,8 +104,10 @@ class ScanMesh:
     faces: np.ndarray           # (F, 3) int, no repeated index within a face
     edges: np.ndarray           # (E, 2) unique undirected edges, a < b
     face_edges: np.ndarray      # (F, 3) edge ids: (f0, f1), (f1, f2), (f2, f0)
-    vertex_normals: np.ndarray  # (V, 3) outward (away from the axis), unit
+    face_vectors: np.ndarray    # (F, 3) outward (away from the axis) normal times twice the area
+    centroids: np.ndarray       # (F, 3)
     face_component: np.ndarray  # (F,) connected-component label of each face
+    edge_length: float          # median edge length [m]
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,7 +142,7 @@ def _unit(v: np.ndarray) -> np.ndarray:
 
 
 def prepare_scan_mesh(vertices, faces) -> ScanMesh:
-    """Check a mesh and compute its edges, outward vertex normals and connected components.
+    """Check a mesh and compute its edges, outward face normals and connected components.
 
     Raises :class:`ModelInputError` (quantity ``scan``) for arrays of the wrong shape,
     non-finite coordinates, indices out of range or a mesh with no triangle of non-zero area.
@@ -161,14 +167,7 @@ def prepare_scan_mesh(vertices, faces) -> ScanMesh:
     # outward = away from the axis: orient every triangle by the radial direction at its centroid
     centroid = v[f].mean(axis=1)
     flip = cross[:, 1] * centroid[:, 1] + cross[:, 2] * centroid[:, 2] < 0
-    face_n = _unit(np.where(flip[:, None], -cross, cross))
-    # angle-weighted vertex normals
-    normals = np.zeros_like(v)
-    for k in range(3):
-        a, b, c = v[f[:, k]], v[f[:, (k + 1) % 3]], v[f[:, (k + 2) % 3]]
-        ang = np.arccos(np.clip(np.sum(_unit(b - a) * _unit(c - a), axis=1), -1.0, 1.0))
-        for d in range(3):
-            normals[:, d] += np.bincount(f[:, k], weights=ang * face_n[:, d], minlength=len(v))
+    cross = np.where(flip[:, None], -cross, cross)
     # unique undirected edges, and each face's three edge ids
     pairs = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     keys, inverse = np.unique(pairs[:, 0] * len(v) + pairs[:, 1], return_inverse=True)
@@ -179,7 +178,8 @@ def prepare_scan_mesh(vertices, faces) -> ScanMesh:
     rows = np.repeat(np.arange(nf), 3)
     graph = coo_matrix((np.ones(3 * nf), (rows, nf + face_edges.ravel())), shape=(nf + ne,) * 2)
     _, labels = connected_components(graph, directed=False)
-    return ScanMesh(v, f, edges, face_edges, _unit(normals), labels[:nf])
+    edge_length = float(np.median(np.linalg.norm(v[edges[:, 1]] - v[edges[:, 0]], axis=1)))
+    return ScanMesh(v, f, edges, face_edges, cross, centroid, labels[:nf], edge_length)
 
 
 def _spaced(yz: np.ndarray, fraction: float) -> np.ndarray:
@@ -402,6 +402,29 @@ def _mean_tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray
     return (integral(pos + h) - integral(pos - h)) / (2 * h)
 
 
+def _patch_normals(mesh: ScanMesh, comp: int, points: np.ndarray, h: float,
+                   hit_faces: np.ndarray) -> np.ndarray:
+    """Inward unit normals at ``points``: the area-weighted mean of the outward face normals
+    around each point, weighted (1 - d^2 / r^2)^2 by the distance d of the face's centroid,
+    for r = h and 2h; (4 n_h - n_2h) / 3 cancels the mean's r^2 error. Where no face lies
+    within h, the face the ray hit (``hit_faces``) gives the normal."""
+    near = (mesh.face_component == comp) & (np.abs(mesh.centroids[:, 0] - points[:, 0].mean())
+                                            <= 2 * h + np.ptp(points[:, 0]))
+    cen, vec = mesh.centroids[near], mesh.face_vectors[near]
+    out = np.empty_like(points)
+    for i, p in enumerate(points):
+        d2 = np.einsum("ij,ij->i", cen - p, cen - p)
+        means = []
+        for radius in (h, 2 * h):
+            weight = np.clip(1.0 - d2 / radius ** 2, 0.0, None) ** 2
+            means.append(_unit(weight @ vec) if weight.any() else None)
+        if means[0] is None:
+            out[i] = -_unit(mesh.face_vectors[hit_faces[i]])
+        else:
+            out[i] = -_unit(4 * means[0] - means[1])
+    return out
+
+
 def _tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
     """The outline's tangent angle at arc positions ``pos``, smoothed over +-h.
 
@@ -425,9 +448,11 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
     theta, span : array (J,)
         Angle and angular width of each angular location [rad], span in (0, 2 pi].
     smoothing : float, optional
-        Half-length h [m] of the arc the tangent angle is averaged over for the turning;
-        default per row: the larger of :data:`DEFAULT_SMOOTHING` and three median segments of
-        the outline, at most a quarter of the row's shortest element arc.
+        Smoothing length h [m]: the half-length of the outline arc the tangent angle is
+        averaged over for the turning, and the radius the surface normal is averaged over
+        (both also at 2h). Default per row: the largest of :data:`DEFAULT_SMOOTHING`, two
+        median mesh edges and three median outline segments, at most a quarter of the row's
+        shortest element arc.
     row_names : sequence of str, optional
         Labels of the rows for the error messages (``A`` gives ``row A``; default 0, 1 ...).
 
@@ -472,32 +497,25 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
         if np.any(k < 0):
             raise ModelInputError(f"a ray from the axis misses the outline of {names[r]} at x = "
                                   f"{x:.4g} m; expected the axis inside the limb", "scan")
-        kn = (k + 1) % len(yz)
-        e0, e1 = mesh.edges[loop.edge[k]], mesh.edges[loop.edge[kn]]
-        t0, t1 = loop.t[k][:, None], loop.t[kn][:, None]
-        vn = mesh.vertex_normals
-        n0 = (1 - t0) * vn[e0[:, 0]] + t0 * vn[e0[:, 1]]
-        n1 = (1 - t1) * vn[e1[:, 0]] + t1 * vn[e1[:, 1]]
         hit_yz = yz[k] + s[:, None] * (np.roll(yz, -1, axis=0)[k] - yz[k])
-        hit_n = -_unit((1 - s[:, None]) * n0 + s[:, None] * n1)
         pos = cum[k] + s * seg[k]
         J = len(th)
         sl = slice(r * J, (r + 1) * J)
         points[sl] = np.column_stack([np.full(J, x), hit_yz[:J]])
-        normals[sl] = hit_n[:J]
         pos_lo, pos_hi = pos[J:2 * J], pos[2 * J:]
         # an element going once around ends a full perimeter after it starts
         pos_hi = np.where(pos_hi <= pos_lo, pos_hi + cum[-1], pos_hi)
         arcs[sl] = pos_hi - pos_lo
         if smoothing is None:
-            h = max(DEFAULT_SMOOTHING, 3 * float(np.median(seg)))
+            h = max(DEFAULT_SMOOTHING, 2 * mesh.edge_length, 3 * float(np.median(seg)))
             h = min(h, 0.25 * float(arcs[sl].min()))
         else:
             h = float(smoothing)
         used_h[r] = h
         turning[sl] = _tangent_angle(yz, pos_hi, h) - _tangent_angle(yz, pos_lo, h)
-        # areas: the surface connected to this outline, clipped to each element's band
         comp = mesh.face_component[loop.face[0]]
+        normals[sl] = _patch_normals(mesh, comp, points[sl], h, loop.face[k[:J]])
+        # areas: the surface connected to this outline, clipped to each element's band
         fx = v[f[:, 0], 0], v[f[:, 1], 0], v[f[:, 2], 0]
         tri_lo, tri_hi = np.minimum.reduce(fx), np.maximum.reduce(fx)
         own = mesh.face_component == comp
