@@ -439,8 +439,9 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
 
     Parameters
     ----------
-    vertices : array (V, 3)
-        Mesh vertices in the cuff frame [m].
+    vertices : array (V, 3) or ScanMesh
+        Mesh vertices in the cuff frame [m], or a mesh from :func:`prepare_scan_mesh` (to
+        place several layouts on one scan; ``faces`` is then ignored).
     faces : array (F, 3)
         Triangles as vertex indices.
     rows_x, row_widths : array (R,)
