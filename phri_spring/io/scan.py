@@ -42,9 +42,11 @@ MAX_TRIANGLES = 1_000_000
 #: almost certainly wrong
 PLAUSIBLE_SIZE_M = (0.01, 3.0)
 MESH_SUFFIXES = (".stl", ".obj", ".ply")
-#: bytes per triangle below which no text mesh can go; a text file larger than the bound times
-#: ``max_triangles`` is refused unread
-_TEXT_BYTES_PER_TRIANGLE = {".stl": 300, ".obj": 64, ".ply": 64}
+#: generous bytes per triangle of a text mesh (an ASCII STL facet is seven lines, about 250
+#: bytes at full precision; an OBJ face with its share of vertex, normal and texture lines
+#: stays under 200): a file larger than this times ``max_triangles`` is refused unread (a
+#: binary STL or a PLY gives its triangle count in its header)
+_TEXT_BYTES_PER_TRIANGLE = {".stl": 300, ".obj": 200}
 _EXTRA = 'reading a scan needs trimesh: pip install "phri-spring[scan]"'
 
 
@@ -178,7 +180,7 @@ def read_mesh(path, *, max_triangles: int = MAX_TRIANGLES):
                         file=path)
     elif suffix == ".ply":
         _check_ply(path, max_triangles)
-    if suffix != ".stl" and size > _TEXT_BYTES_PER_TRIANGLE[suffix] * max_triangles:
+    if suffix == ".obj" and size > _TEXT_BYTES_PER_TRIANGLE[suffix] * max_triangles:
         raise DataError(f"the file is {size / 1e6:.0f} MB, more than {max_triangles:,} "
                         f"triangles ({SCAN_KEY}.max_triangles) can take; expected a decimated "
                         "scan", file=path)
