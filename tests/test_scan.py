@@ -401,6 +401,7 @@ def test_the_wrong_unit_is_refused_with_the_plausible_range(tmp_path, scale, uni
     ("origin", [0, 0], "3 numbers"),
     ("axis", "x", "3 numbers"),
     ("unit", "cm", "mm, m"),
+    ("unit", ["mm"], "mm, m"),
     ("max_triangles", 0, "whole number"),
     ("smoothing", -1.0, "length > 0"),
 ])
@@ -418,6 +419,8 @@ def test_missing_and_unknown_keys(tmp_path):
     one_line(refused(tmp_path, cfg, ConfigError), "geometry.scan", "missing key 'y_axis'")
     one_line(refused(tmp_path, scan_cfg("limb.stl", units="mm"), ConfigError), "geometry.scan",
              "unknown key 'units'")
+    one_line(refused(tmp_path, {**scan_cfg("limb.stl"), 1: 2, "z": 3}, ConfigError),
+             "geometry.scan", "unknown key '1'")
 
 
 @pytest.mark.parametrize("suffix", [".stl", "_ascii.stl", ".obj", ".ply"])

@@ -218,7 +218,7 @@ def _scan_config(cfg, config_path):
     if not isinstance(cfg, dict):
         raise ConfigTypeError("expected a mapping {file, unit, origin, axis, y_axis}, got "
                               f"{cfg!r}", file=config_path, key=SCAN_KEY)
-    unknown = sorted(set(cfg) - set(SCAN_KEYS))
+    unknown = sorted(str(k) for k in set(cfg) - set(SCAN_KEYS))
     if unknown:
         raise ConfigError(f"unknown key {unknown[0]!r}; expected {', '.join(SCAN_KEYS)}",
                           file=config_path, key=SCAN_KEY)
@@ -227,7 +227,7 @@ def _scan_config(cfg, config_path):
         raise ConfigError(f"missing key {missing[0]!r}; expected "
                           f"{', '.join(_REQUIRED)} (max_triangles, smoothing optional)",
                           file=config_path, key=SCAN_KEY)
-    if cfg["unit"] not in UNITS:
+    if not isinstance(cfg["unit"], str) or cfg["unit"] not in UNITS:
         raise ConfigError(f"expected one of {', '.join(UNITS)}, got {cfg['unit']!r}",
                           file=config_path, key=f"{SCAN_KEY}.unit")
     if not isinstance(cfg["file"], (str, os.PathLike)) or not str(cfg["file"]).strip():
