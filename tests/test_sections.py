@@ -342,3 +342,39 @@ def test_commands_run_on_an_ellipse(tmp_path):
                        "--shear")
         assert res.exit_code == 0, res.output
     assert run_phri("stiffness", cfg).exit_code == 0
+
+
+# --------------------------------------------------------------------------- presets
+PRESET_SHAPES = {   # circumference [m] the preset's comments cite, axis ratio, taper [deg]
+    "human_forearm.yaml": (0.2866, 0.84, 4.7),
+    "human_thigh.yaml": (0.5941, 0.85, 4.7),
+    "human_shank.yaml": (0.36, 0.92, 4.7),
+}
+
+
+@pytest.mark.parametrize("name", sorted(PRESET_SHAPES))
+def test_limb_presets_load_and_simulate(name, tmp_path):
+    from pathlib import Path
+
+    from phri_spring.io.config import load_config
+
+    path = Path(__file__).resolve().parent.parent / "configs" / name
+    cfg = load_config(path)
+    C, q, taper = PRESET_SHAPES[name]
+    (sec,) = set(cfg.sections)
+    # the ellipse's perimeter is the cited circumference: 4 a E(1 - q^2)
+    assert sec.b / sec.a == pytest.approx(q, abs=5e-3)
+    assert ellipse_perimeter(sec.a, sec.b) == pytest.approx(C, rel=2e-3)
+    assert cfg.taper_deg == taper
+    W = random_wrenches(6)
+    for arm in ("compliant", "rigid"):
+        model = model_from_config(cfg, arm)
+        sol = solve(model, W)
+        assert sol.converged.all()
+        # equilibrium (docs/model.md section 4): sum_e f_e b_e + K_s u = W + W_pre
+        lhs = sol.forces @ model.b + sol.u @ model.K_s.T
+        np.testing.assert_allclose(lhs, W + model.W_pre, rtol=0,
+                                   atol=1e-9 * (1.0 + np.abs(W).max()))
+        assert np.all(sol.forces >= 0)
+    res = run_phri("stiffness", path, "--arm", "coupled")
+    assert_one_line_error(res, "geometry.section", "circular", code=1)

@@ -211,7 +211,7 @@ def _check_coupled_shape(cfg: Config) -> None:
                           f"built-in FE, which meshes a circular cylindrical layer: {what} is "
                           "not available there yet (use --arm compliant or rigid)",
                           file=cfg.path, key=key)
-    if cfg.continuum_thickness is not None and cfg.continuum_surface_stiffness is None:
+    if cfg.continuum_surface_stiffness is None:
         raise ConfigError(f"the coupled arm's built-in FE meshes a circular cylindrical layer: "
                           f"{what} is not available there yet; give your own FE's "
                           "tissue.continuum.surface_stiffness for this limb, or use --arm "
