@@ -330,6 +330,25 @@ def test_coupled_arm_refuses_a_shape_its_fe_cannot_mesh(tmp_path):
         assert_one_line_error(res, key, "circular", code=1)
 
 
+def test_coupled_arm_takes_a_users_fe_of_any_shape(tmp_path):
+    """With its own surface stiffness (here a diagonal one: independent springs of
+    2e4 N/m per patch direction) the coupled arm runs on an ellipse: its patch frames are
+    the geometry's (n_e, a_e, c_e), so the zero-load normal forces are the hoop preload."""
+    raw = with_section({"ellipse": [0.05, 0.04], "rotation": 10.0})
+    n = 21
+    np.savez(tmp_path / "K.npz", K=np.eye(3 * n) * 2e4,
+             labels=np.array([f"{r}{j}" for r in "ABC" for j in range(7)]))
+    raw["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": 3e4,
+                                  "surface_stiffness": "K.npz"}
+    path = write_yaml(tmp_path, raw)
+    assert run_phri("stiffness", path, "--arm", "coupled").exit_code == 0
+    cfg = config_from_dict(raw, path=path, base_dir=tmp_path)
+    model = model_from_config(cfg, "coupled")
+    sol = solve(model, np.zeros((1, 6)))
+    spring = model_from_config(cfg, "compliant")
+    np.testing.assert_allclose(sol.forces[0], spring.f0, rtol=1e-9, atol=1e-12)
+
+
 def test_commands_run_on_an_ellipse(tmp_path):
     raw = with_section({"ellipse": [0.05, 0.04], "rotation": 10.0}, taper=4.0)
     cfg = write_yaml(tmp_path, raw)
@@ -341,6 +360,10 @@ def test_commands_run_on_an_ellipse(tmp_path):
         res = run_phri("simulate", cfg, log, "-o", tmp_path / f"{arm}.csv", "--arm", arm,
                        "--shear")
         assert res.exit_code == 0, res.output
+    raw["interface"]["friction_coefficient"] = 0.5     # Coulomb friction on the cone
+    res = run_phri("simulate", write_yaml(tmp_path, raw, "friction.yaml"), log, "-o",
+                   tmp_path / "friction.csv", "--shear")
+    assert res.exit_code == 0, res.output
     assert run_phri("stiffness", cfg).exit_code == 0
 
 
