@@ -144,11 +144,12 @@ def shear_matrix(geom: Geometry, ks) -> np.ndarray:
 
 def hoop_f0(geom: Geometry, tension: float) -> np.ndarray:
     """docs/model.md section 3 hoop: f0_e = T * radians(width) * w_r / sum_r(w_r); on a
-    section of any shape (section 13, a ``turning`` attribute) T * psi_e * w_r / sum_r(w_r)."""
+    section of any shape (section 13, a ``turning`` attribute)
+    T * max(psi_e, 0) * w_r / sum_r(w_r) (a band bridges a concave stretch)."""
     total_w = sum(geom.row_width)
     turning = getattr(geom, "turning", None)
     if turning is not None:
-        return np.array([tension * psi * w / total_w
+        return np.array([tension * max(psi, 0.0) * w / total_w
                          for psi, w in zip(turning, geom.elem_row_width)])
     return np.array([tension * math.radians(geom.width_deg) * w / total_w
                      for w in geom.elem_row_width])

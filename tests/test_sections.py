@@ -123,6 +123,25 @@ def test_hoop_pressure_against_the_equal_perimeter_circle():
     assert ratio[1] == pytest.approx(0.72, abs=0.005)
 
 
+def test_hoop_band_bridges_a_concave_stretch():
+    """A bean-shaped outline, rho = 0.05 (1 + 0.3 cos 2t): concave around 90 and 270 deg
+    (rho^2 + 2 rho'^2 - rho rho'' < 0 there). The band presses nothing there, and u = 0
+    is still the equilibrium at zero load: every element carries its f0."""
+    t = np.linspace(0.0, 2 * math.pi, 36, endpoint=False)
+    r = 0.05 * (1 + 0.3 * np.cos(2 * t))
+    sec = OutlineSection(np.column_stack([r * np.cos(t), r * np.sin(t)]))
+    g = section_geometry([0.0], sec, 0.02, 0.0, 30.0, 12)
+    assert g.turning[3] < 0 and g.turning[9] < 0            # the elements at 90, 270 deg
+    assert float(np.sum(g.turning)) == pytest.approx(2 * math.pi, abs=1e-9)
+    m = build_model(g, 5e4, 1e6, strap_tension=15.0)
+    np.testing.assert_array_equal(m.f0[g.turning < 0], 0.0)
+    np.testing.assert_allclose(m.f0[g.turning > 0], 15.0 * g.turning[g.turning > 0],
+                               rtol=1e-12)
+    sol = solve(m, np.zeros((1, 6)))
+    np.testing.assert_allclose(sol.u[0], 0.0, atol=1e-15)
+    np.testing.assert_allclose(sol.forces[0], m.f0, rtol=0, atol=1e-12)
+
+
 # --------------------------------------------------------------------------- the circle limit
 @pytest.mark.parametrize("arm", ["compliant", "rigid"])
 @pytest.mark.parametrize("strap", ["hoop", "handles"])
@@ -312,6 +331,10 @@ def _star_breaking_outline():
     (dict(radius=None, section={"per_row": [{"ellipse": [0.05, 0.04]}] * 2
                                 + [{"ellipse": [0.05, 0.0]}]}),
      "geometry.section.per_row[2].ellipse", "positive"),
+    (dict(radius=None, section={"ellipse": [0.05, 0.04], "outline": [[0.05, 0.0]] * 8}),
+     "geometry.section", "not both"),
+    (dict(radius=None, section={"per_row": [{"ellipse": [0.05, 0.04]}] * 3, "rotation": 5}),
+     "geometry.section.rotation", "per_row takes no other key"),
     (dict(taper_deg=90.0), "geometry.taper_deg", "between -30 and 30"),
     (dict(taper_deg=45.0), "geometry.taper_deg", "between -30 and 30"),
 ])

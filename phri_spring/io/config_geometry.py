@@ -55,6 +55,10 @@ def geometry_sections(g, n_rows: int, path):
         raise ConfigError("give either geometry.radius (a circular section) or a non-circular "
                           "geometry.section, not both (the radius would be ambiguous)",
                           file=path, key="geometry.radius")
+    if "per_row" in spec and set(spec) != {"per_row"}:
+        other = sorted(set(spec) - {"per_row"})[0]
+        raise ConfigError("per_row takes no other key: put each row's section in its list",
+                          file=path, key=f"geometry.section.{other}")
     if set(spec) == {"per_row"}:
         items = spec["per_row"]
         if not isinstance(items, list) or len(items) != n_rows:
@@ -76,6 +80,8 @@ def _one_section(spec, path, key):
     forms = "{ellipse: [a, b], rotation: deg} or {outline: [[y, z], ...]}"
     if not isinstance(spec, dict) or not spec:
         raise ConfigError(f"expected {forms}, got {spec!r}", file=path, key=key)
+    if "ellipse" in spec and "outline" in spec:
+        raise ConfigError("give either an ellipse or an outline, not both", file=path, key=key)
     kind = "ellipse" if "ellipse" in spec else "outline" if "outline" in spec else None
     allowed = {"ellipse": {"ellipse", "rotation"}, "outline": {"outline"}}.get(kind, set())
     extra = sorted(set(spec) - allowed)

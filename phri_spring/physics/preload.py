@@ -86,7 +86,9 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
     if model == "hoop":
         row_w = geometry.row_width[:: geometry.n_angles]
         turning = geometry.span if geometry.turning is None else geometry.turning
-        return hoop_preload(tension, turning, geometry.row_width, row_w), None
+        # a band cannot pull skin outward: across a concave stretch (psi_e < 0) it bridges
+        # the hollow and presses nothing, so that u = 0 stays the unloaded equilibrium
+        return hoop_preload(tension, np.maximum(turning, 0.0), geometry.row_width, row_w), None
     if model == "handles":
         if handle_angles_deg is None:
             th = np.degrees(geometry.theta[: geometry.n_angles])
