@@ -335,6 +335,7 @@ def _star_breaking_outline():
      "geometry.section", "not both"),
     (dict(radius=None, section={"per_row": [{"ellipse": [0.05, 0.04]}] * 3, "rotation": 5}),
      "geometry.section.rotation", "per_row takes no other key"),
+    (dict(radius=45.0), "geometry.radius", "between 0.005 and 0.3 m"),
     (dict(taper_deg=90.0), "geometry.taper_deg", "between -30 and 30"),
     (dict(taper_deg=45.0), "geometry.taper_deg", "between -30 and 30"),
 ])

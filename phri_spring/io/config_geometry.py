@@ -34,7 +34,7 @@ def geometry_sections(g, n_rows: int, path):
     :mod:`~phri_spring.physics.sections` object per row, and as radius each row's
     equal-perimeter radius. One-line ConfigErrors naming the key.
     """
-    from ..physics.sections import SectionError, check_taper
+    from ..physics.sections import SectionError, check_rho_range, check_taper
 
     try:
         taper = check_taper(g.taper_deg)
@@ -46,7 +46,12 @@ def geometry_sections(g, n_rows: int, path):
             raise ConfigError("expected the radius [m] (scalar or one per row) of the circular "
                               "section, or a geometry.section (ellipse, outline)", file=path,
                               key="geometry.radius")
-        return None, per_row_values(g.radius, n_rows, path, "geometry.radius"), taper
+        radius = per_row_values(g.radius, n_rows, path, "geometry.radius")
+        try:
+            check_rho_range(float(radius.min()), float(radius.max()), "radius")
+        except SectionError as exc:
+            raise ConfigError(str(exc), file=path, key="geometry.radius") from None
+        return None, radius, taper
     if isinstance(spec, str):
         raise ConfigError(f"expected 'circle', {{ellipse: [a, b], rotation: deg}}, "
                           f"{{outline: [[y, z], ...]}} or {{per_row: [...]}}, got {spec!r}",

@@ -29,7 +29,7 @@ from scipy.interpolate import CubicSpline
 
 __all__ = ["SectionError", "Section", "CircleSection", "EllipseSection", "OutlineSection",
            "StrapSection", "RHO_RANGE_M", "MIN_OUTLINE_POINTS", "TAPER_LIMIT_DEG",
-           "check_taper"]
+           "check_taper", "check_rho_range"]
 
 #: distance of a limb's skin from its axis we accept [m]: a child's wrist is about
 #: 0.02 m, a large thigh about 0.15 m (a 45 m "limb" is a unit mistake)
@@ -52,7 +52,8 @@ def _wrap(a):
     return np.angle(np.exp(1j * np.asarray(a, dtype=float)))
 
 
-def _check_size(rho_min: float, rho_max: float, what: str) -> None:
+def check_rho_range(rho_min: float, rho_max: float, what: str) -> None:
+    """SectionError unless distances from the axis rho_min..rho_max [m] are a limb's."""
     lo, hi = RHO_RANGE_M
     if not (np.isfinite(rho_min) and np.isfinite(rho_max)):
         raise SectionError(f"{what}: expected finite numbers [m]")
@@ -195,7 +196,7 @@ class EllipseSection(Section):
             raise SectionError(f"expected two positive semi-axes [m], got [{a:g}, {b:g}]")
         if not math.isfinite(rotation):
             raise SectionError(f"expected a finite rotation [deg], got {rotation!r}")
-        _check_size(min(a, b), max(a, b), "semi-axes")
+        check_rho_range(min(a, b), max(a, b), "semi-axes")
         self.a, self.b, self.phi = a, b, rotation
 
     def curve(self, t, order: int = 0):
@@ -245,7 +246,7 @@ class OutlineSection(Section):
             raise SectionError(f"expected at least {MIN_OUTLINE_POINTS} points around the limb, "
                                f"got {len(P)}")
         r = np.hypot(P[:, 0], P[:, 1])
-        _check_size(float(r.min()), float(r.max()), "outline points")
+        check_rho_range(float(r.min()), float(r.max()), "outline points")
         ang = np.arctan2(P[:, 1], P[:, 0])
         steps = _wrap(np.diff(np.append(ang, ang[0])))
         total = float(np.sum(steps))
@@ -279,7 +280,7 @@ class OutlineSection(Section):
                                "expected each ray from the axis to cross the outline once "
                                "(add points there)")
         rs = np.hypot(c[:, 0], c[:, 1])
-        _check_size(float(rs.min()), float(rs.max()), "outline")
+        check_rho_range(float(rs.min()), float(rs.max()), "outline")
         self._ts = ts
         self._angle = ang[0] + np.concatenate([[0.0], np.cumsum(_wrap(np.diff(
             np.arctan2(c[:, 1], c[:, 0]))))])
