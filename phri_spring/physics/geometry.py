@@ -295,7 +295,7 @@ def cuff_geometry(row_x, radius, row_width, angle_start_deg: float, angle_step_d
     return CuffGeometry(labels=labels, row_labels=row_labels, n_rows=n_rows, n_angles=n_ang,
                         x=x, radius=Re, row_width=we, theta=theta, span=span, points=points,
                         normals=normals, areas=areas, b=contact_vectors(points, normals),
-                        turning=span.copy(), handles_radius=float(np.mean(R)))
+                        turning=span, handles_radius=float(np.mean(R)))
 
 
 def section_geometry(row_x, sections, row_width, angle_start_deg: float, angle_step_deg: float,
