@@ -143,8 +143,14 @@ def shear_matrix(geom: Geometry, ks) -> np.ndarray:
 
 
 def hoop_f0(geom: Geometry, tension: float) -> np.ndarray:
-    """docs/model.md section 3 hoop: f0_e = T * radians(width) * w_r / sum_r(w_r)."""
+    """docs/model.md section 3 hoop: f0_e = T * radians(width) * w_r / sum_r(w_r); on a
+    section of any shape (section 13, a ``turning`` attribute)
+    T * max(psi_e, 0) * w_r / sum_r(w_r) (a band bridges a concave stretch)."""
     total_w = sum(geom.row_width)
+    turning = getattr(geom, "turning", None)
+    if turning is not None:
+        return np.array([tension * max(psi, 0.0) * w / total_w
+                         for psi, w in zip(turning, geom.elem_row_width)])
     return np.array([tension * math.radians(geom.width_deg) * w / total_w
                      for w in geom.elem_row_width])
 
@@ -155,8 +161,12 @@ def handles_wrench(geom: Geometry, tension: float, handle_angles=None, axial_pos
         half = geom.width_deg / 2.0
         handle_angles = (geom.theta_deg[0] - half, geom.theta_deg[-1] + half)
     xa = float(np.mean(geom.row_x)) if axial_position is None else float(axial_position)
-    Rm = float(np.mean(geom.row_radius))
     ta, tb = (math.radians(a) for a in handle_angles)
+    handle = getattr(geom, "handle", None)
+    if handle is not None:      # section 13: the outline at the strap, its tangent
+        (pa, Ta), (pb, Tb) = handle(ta, xa), handle(tb, xa)
+        return tension * np.concatenate([Tb - Ta, np.cross(pb, Tb) - np.cross(pa, Ta)])
+    Rm = float(np.mean(geom.row_radius))
     pa = np.array([xa, Rm * math.cos(ta), Rm * math.sin(ta)])
     pb = np.array([xa, Rm * math.cos(tb), Rm * math.sin(tb)])
     Ta, Tb = tangent(ta), tangent(tb)

@@ -24,6 +24,7 @@ from ..errors import ConfigError
 from .schema_errors import config_error_from
 # the wrench-log columns of docs/model.md section 7, importable from here too
 from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
+from .config_geometry import geometry_sections, per_row_values
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
@@ -52,10 +53,17 @@ class _Angles(_Strict):
 
 
 class _Geometry(_Strict):
-    radius: Union[float, list[float]] = Field(json_schema_extra=_unit("m"))
+    #: required with a circular section (the default), an error with any other
+    radius: Optional[Union[float, list[float]]] = Field(default=None,
+                                                        json_schema_extra=_unit("m"))
     rows: dict[str, float] = Field(json_schema_extra=_unit("m"))
     row_width: Union[float, list[float]] = Field(json_schema_extra=_unit("m"))
     angles: _Angles
+    #: the limb's section (docs/model.md section 13): circle, {ellipse: [a, b], rotation},
+    #: {outline: [[y, z], ...]} or {per_row: [...]}; checked by geometry_sections
+    section: Optional[Union[str, dict]] = None
+    #: taper half-angle, positive when the limb narrows distally (docs/model.md section 13)
+    taper_deg: float = Field(default=0.0, json_schema_extra=_unit("deg"))
 
     @field_validator("rows")
     @classmethod
@@ -227,6 +235,10 @@ class Config:
     angle_count: int
     angle_width_deg: Optional[float]
     labels: tuple
+    #: the rows' sections (physics.sections objects, one per row), None: circles of radius
+    sections: Optional[tuple] = field(default=None, kw_only=True)
+    #: taper half-angle alpha [deg] (geometry.taper_deg)
+    taper_deg: float = field(default=0.0, kw_only=True)
     tissue_stiffness: np.ndarray           # (n,), as configured, in tissue_basis
     tissue_basis: str
     indenter_diameter: float
@@ -271,11 +283,22 @@ class Config:
 
     def geometry(self):
         """The element geometry (:class:`~phri_spring.physics.geometry.CuffGeometry`) it describes."""
-        from ..physics.geometry import cuff_geometry
+        from ..physics.geometry import cuff_geometry, section_geometry
 
-        return cuff_geometry(self.row_x, self.radius, self.row_width, self.angle_start_deg,
-                             self.angle_step_deg, self.angle_count, self.angle_width_deg,
-                             row_labels=self.row_labels)
+        if self.sections is None:
+            return cuff_geometry(self.row_x, self.radius, self.row_width, self.angle_start_deg,
+                                 self.angle_step_deg, self.angle_count, self.angle_width_deg,
+                                 row_labels=self.row_labels, taper_deg=self.taper_deg)
+        return section_geometry(self.row_x, self.sections, self.row_width,
+                                self.angle_start_deg, self.angle_step_deg, self.angle_count,
+                                self.angle_width_deg, row_labels=self.row_labels,
+                                taper_deg=self.taper_deg)
+
+    @property
+    def is_circular_cylinder(self) -> bool:
+        """Whether the limb is the circular cylinder of docs/model.md section 1 (no
+        geometry.section other than circle, no taper)."""
+        return self.sections is None and self.taper_deg == 0
 
     @property
     def n_rows(self) -> int:
@@ -288,19 +311,6 @@ class Config:
 
 def _label_list(row_labels, count) -> tuple:
     return tuple(f"{r}{j}" for r in row_labels for j in range(count))
-
-
-def _per_row(value, n_rows, path, key) -> np.ndarray:
-    arr = np.atleast_1d(np.asarray(value, dtype=float))
-    if arr.size == 1:
-        arr = np.full(n_rows, float(arr[0]))
-    if arr.shape != (n_rows,):
-        raise ConfigError(f"expected a scalar or {n_rows} values (one per row), got {arr.size}",
-                          file=path, key=key)
-    if not np.all(np.isfinite(arr) & (arr > 0)):
-        raise ConfigError(f"expected positive finite values [m], got {arr.tolist()}", file=path,
-                          key=key)
-    return arr
 
 
 def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
@@ -325,8 +335,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     if not np.all(np.isfinite(row_x)):
         raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
     n_rows, n_ang = len(row_labels), g.angles.count
-    radius = _per_row(g.radius, n_rows, path, "geometry.radius")
-    row_width = _per_row(g.row_width, n_rows, path, "geometry.row_width")
+    sections, radius, taper = geometry_sections(g, n_rows, path)
+    row_width = per_row_values(g.row_width, n_rows, path, "geometry.row_width")
     for k in ("start", "step"):
         if not math.isfinite(getattr(g.angles, k)):
             raise ConfigError("expected a finite angle [deg]", file=path, key=f"geometry.angles.{k}")
@@ -408,7 +418,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         radius=radius, row_width=row_width, angle_start_deg=float(g.angles.start),
         angle_step_deg=float(g.angles.step), angle_count=int(n_ang),
         angle_width_deg=None if g.angles.width is None else float(g.angles.width),
-        labels=labels, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
+        labels=labels, sections=sections, taper_deg=taper, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
         indenter_diameter=float(root.tissue.indenter_diameter),
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
         loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),

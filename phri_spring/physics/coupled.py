@@ -54,13 +54,11 @@ __all__ = ["CoupledModel", "CoupledSystem", "SetFactors", "build_coupled_model",
 def patch_frames(geometry: CuffGeometry) -> np.ndarray:
     """Local axes of every patch, shape (n, 3, 3): rows normal n_e, axial a, circumferential c_e.
 
-    n_e points into the arm; a = +x (along the arm); c_e = n_e x a, the direction
-    of increasing angle theta.
+    n_e points into the arm; a = the skin's meridian toward +x (+x itself on an untapered
+    limb); c_e = the direction of increasing angle theta (the geometry's ``meridian`` and
+    ``circumferential``).
     """
-    n_vec = geometry.normals
-    a = np.broadcast_to(np.array([1.0, 0.0, 0.0]), n_vec.shape)
-    c = np.cross(n_vec, a)
-    return np.stack([n_vec, a, c], axis=1)
+    return np.stack([geometry.normals, geometry.meridian, geometry.circumferential], axis=1)
 
 
 def rigid_patch_map(geometry: CuffGeometry, dofs: int) -> np.ndarray:

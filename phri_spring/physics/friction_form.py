@@ -92,9 +92,8 @@ def interface_form(model) -> InterfaceForm:
     g = model.geometry
     n = g.n
     B = element_jacobians(g.points)                                   # (n, 3, 6)
-    a = np.array([1.0, 0.0, 0.0])
-    circ = np.cross(g.normals, a)
-    T = np.stack([g.b, B[:, 0, :], np.einsum("ei,eij->ej", circ, B)], axis=1).reshape(3 * n, 6)
+    T = np.stack([g.b, np.einsum("ei,eij->ej", g.meridian, B),
+                  np.einsum("ei,eij->ej", g.circumferential, B)], axis=1).reshape(3 * n, 6)
     comp = np.stack([1.0 / model.k, 1.0 / model.k_shear, 1.0 / model.k_shear], axis=1).ravel()
     delta = np.zeros((n, 3))
     delta[:, 0] = model.delta0

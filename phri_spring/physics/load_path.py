@@ -41,7 +41,7 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
     S = np.atleast_2d(np.asarray(contact, dtype=bool))
     g = model.geometry
     normals = g.normals
-    circ = np.cross(normals, np.array([1.0, 0.0, 0.0]))
+    circ, axial = g.circumferential, g.meridian
     if hasattr(model, "patch_forces") and tangential is None:
         # the coupled model's program forces (the normal force along n_e, not the traction
         # integral it reports): these are what balance the wrench
@@ -54,7 +54,7 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
         ft = model.shear_components(u, S)
         fn = normal_forces(model, u)
     fn = np.where(S, fn, 0.0)
-    vec_t = ft[..., 0, None] * np.array([1.0, 0.0, 0.0]) + ft[..., 1, None] * circ
+    vec_t = ft[..., 0, None] * axial + ft[..., 1, None] * circ
     normal = np.einsum("me,ei->mi", fn, normals)
     touch = np.einsum("me,mei->mi", S.astype(float), vec_t)
     lifted = np.einsum("me,mei->mi", (~S).astype(float), vec_t)

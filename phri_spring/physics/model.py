@@ -197,12 +197,14 @@ class SpringModel(OnGeometry):
         return self.k_shear[:, None] * (d - dn * g.normals)
 
     def shear_components(self, u, contact=None) -> np.ndarray:
-        """Shear force on the arm, (m, n, 2) [N]: along the axis a = +x and along
-        c_e = n_e x a (increasing angle), for displacements u (m, 6); ``contact`` unused
-        (the shear springs are bonded)."""
+        """Shear force on the arm, (m, n, 2) [N]: along the skin's meridian a_e (+x on an
+        untapered limb) and along c_e (increasing angle), the geometry's
+        ``meridian`` and ``circumferential``, for displacements u (m, 6); ``contact``
+        unused (the shear springs are bonded)."""
         s = self.shear_forces(np.atleast_2d(u))
-        circ = np.cross(self.geometry.normals, np.array([1.0, 0.0, 0.0]))
-        return np.stack([s[..., 0], np.sum(s * circ, axis=-1)], axis=-1)
+        g = self.geometry
+        return np.stack([np.sum(s * g.meridian, axis=-1),
+                         np.sum(s * g.circumferential, axis=-1)], axis=-1)
 
     def tangent_stiffness(self, u, contact=None) -> np.ndarray:
         """Tangent stiffness K_s + sum_{e in contact} k_e b_e b_e^T (6, 6) at displacement u (6,).

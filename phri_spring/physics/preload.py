@@ -1,25 +1,28 @@
-"""Strap pretension (docs/model.md section 3)."""
+"""Strap pretension (docs/model.md sections 3 and 13)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ModelInputError
 from .geometry import tangent
 
-__all__ = ["hoop_preload", "handles_preload", "strap_preload"]
+__all__ = ["hoop_preload", "handles_preload", "handles_preload_on", "strap_preload"]
 
 
 def hoop_preload(tension: float, span, row_width, n_rows_widths) -> np.ndarray:
     """Initial normal force of each element under the ``hoop`` strap model [N].
 
-    f0_e = T * span_e * w_r / sum_r(w_r)
+    f0_e = T * psi_e * w_r / sum_r(w_r) (Laplace's law: a band of tension T presses an
+    element with T times the angle its tangent turns through there)
 
     Parameters
     ----------
     tension : float
         Strap tension T [N].
     span : array_like, shape (n,)
-        Angular width of each element [rad].
+        Turning psi_e of the skin outline across each element [rad] (on a circle the
+        element's angular width).
     row_width : array_like, shape (n,)
         Axial width w_r of each element's row [m].
     n_rows_widths : array_like, shape (n_rows,)
@@ -57,6 +60,16 @@ def handles_preload(tension: float, theta_a: float, theta_b: float, axial_positi
     return float(tension) * np.concatenate([t_b - t_a, np.cross(p_b, t_b) - np.cross(p_a, t_a)])
 
 
+def handles_preload_on(strap_section, tension: float, theta_a: float, theta_b: float,
+                       axial_position: float) -> np.ndarray:
+    """:func:`handles_preload` with the handles on a section of any shape (docs/model.md
+    section 13): p and t the outline's point and unit tangent (toward increasing theta)
+    at each handle angle [rad], at the axial position [m]."""
+    p_a, t_a = strap_section.point_and_tangent(theta_a, axial_position)
+    p_b, t_b = strap_section.point_and_tangent(theta_b, axial_position)
+    return float(tension) * np.concatenate([t_b - t_a, np.cross(p_b, t_b) - np.cross(p_a, t_a)])
+
+
 def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_deg=None,
                   handle_axial_position=None):
     """The strap's preload on a cuff geometry, for every arm model (docs/model.md section 3).
@@ -72,7 +85,10 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
     """
     if model == "hoop":
         row_w = geometry.row_width[:: geometry.n_angles]
-        return hoop_preload(tension, geometry.span, geometry.row_width, row_w), None
+        turning = geometry.span if geometry.turning is None else geometry.turning
+        # a band cannot pull skin outward: across a concave stretch (psi_e < 0) it bridges
+        # the hollow and presses nothing, so that u = 0 stays the unloaded equilibrium
+        return hoop_preload(tension, np.maximum(turning, 0.0), geometry.row_width, row_w), None
     if model == "handles":
         if handle_angles_deg is None:
             th = np.degrees(geometry.theta[: geometry.n_angles])
@@ -80,7 +96,14 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
             handle_angles_deg = (th[0] - half, th[-1] + half)
         ax = float(np.mean(geometry.x[:: geometry.n_angles])) if handle_axial_position is None \
             else float(handle_axial_position)
-        radius = float(np.mean(geometry.radius[:: geometry.n_angles]))
         ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
-        return np.zeros(geometry.n), handles_preload(tension, ta, tb, ax, radius)
+        if geometry.strap_section is not None:
+            return np.zeros(geometry.n), handles_preload_on(geometry.strap_section, tension,
+                                                            ta, tb, ax)
+        if geometry.handles_radius is None:
+            raise ModelInputError("the handles strap model needs the limb's outline at the "
+                                  "strap (this geometry has none); use strap.model: hoop",
+                                  "strap_model")
+        return np.zeros(geometry.n), handles_preload(tension, ta, tb, ax,
+                                                     geometry.handles_radius)
     raise ValueError(f"strap model: expected 'hoop' or 'handles', got {model!r}")

@@ -99,6 +99,7 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
 
 #: config key a physics input error is about (ModelInputError.quantity -> key)
 _QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear_ratio",
+                  "strap_model": "strap.model",
                   "tissue_law": "tissue.law", "friction_coefficient": "interface.friction_coefficient",
                   "stiffness": "cuff.stiffness", "surface_stiffness": "tissue.continuum",
                   "normal_output": "tissue.continuum"}
@@ -187,6 +188,7 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
     ``tissue.continuum.law`` ``neo_hookean`` or ``ogden`` the reduced hyperelastic model
     (:func:`~phri_spring.workflows.hyper_arm.hyper_coupled_model`) on this linear one.
     """
+    _check_coupled_shape(cfg)
     if cfg.continuum_law in ("neo_hookean", "ogden"):
         from .hyper_arm import hyper_coupled_model
 
@@ -194,6 +196,26 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
             cfg, lambda c, lv: _linear_coupled_model(c, cache_dir=cache_dir, level=lv),
             continuum_modulus(cfg), cache_dir=cache_dir, level=level)
     return _linear_coupled_model(cfg, cache_dir=cache_dir, level=level)
+
+
+def _check_coupled_shape(cfg: Config) -> None:
+    """Refuse a limb the coupled arm cannot model (docs/model.md section 13): the built-in
+    FE meshes a circular cylindrical layer, and the hyperelastic laws are identified on
+    it; the user's own FE export (tissue.continuum.surface_stiffness) may be of any shape."""
+    if cfg.is_circular_cylinder:
+        return
+    key = "geometry.section" if cfg.sections is not None else "geometry.taper_deg"
+    what = "a non-circular section" if cfg.sections is not None else "a taper"
+    if cfg.continuum_law in ("neo_hookean", "ogden"):
+        raise ConfigError(f"the coupled arm's {cfg.continuum_law} law is identified on the "
+                          f"built-in FE, which meshes a circular cylindrical layer: {what} is "
+                          "not available there yet (use --arm compliant or rigid)",
+                          file=cfg.path, key=key)
+    if cfg.continuum_surface_stiffness is None:
+        raise ConfigError(f"the coupled arm's built-in FE meshes a circular cylindrical layer: "
+                          f"{what} is not available there yet; give your own FE's "
+                          "tissue.continuum.surface_stiffness for this limb, or use --arm "
+                          "compliant or rigid", file=cfg.path, key=key)
 
 
 def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
@@ -205,8 +227,11 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
         raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
                           "young_modulus [Pa] unless tissue.stiffness holds indenter values)",
                           file=cfg.path, key=key)
+    _check_coupled_shape(cfg)
     geom = geometry_from_config(cfg)
-    radius = np.unique(geom.radius)
+    # a limb of any shape comes with the user's own FE (checked above): its thinnest
+    # point bounds the layer
+    radius = np.unique(geom.radius) if cfg.is_circular_cylinder else np.min(geom.radius)[None]
     if len(radius) != 1:
         raise ConfigError("the coupled model needs one cuff radius for every row (a cylindrical "
                           f"arm), got {sorted(radius.tolist())} m", file=cfg.path,
