@@ -68,8 +68,8 @@ from ._common import ArmChoice, info, progress_enabled
               help="A status line on stderr (default: only when stderr is a terminal).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
 def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm_clear,
-         alarm_hold, duration, max_samples, columns, counts_per_force, counts_per_torque, stall_timeout, decimals,
-         progress, quiet):
+         alarm_hold, duration, max_samples, columns, counts_per_force, counts_per_torque,
+         stall_timeout, decimals, progress, quiet):
     """Predict the force on every cuff element for each sample of a live wrench stream.
 
     Every sample goes through CONFIG's model (single-sample solver, warm-started)
@@ -104,8 +104,8 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm
 
 
 def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, duration,
-          max_samples, columns, counts_per_force, counts_per_torque, stall_timeout, decimals, progress,
-          quiet):
+          max_samples, columns, counts_per_force, counts_per_torque, stall_timeout, decimals,
+          progress, quiet):
     from phri_spring.errors import UsageError
     from phri_spring.io.config import load_config
     from phri_spring.io.live_sources import import_pylsl, make_source
