@@ -325,6 +325,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     row_x = np.array([float(v) for v in g.rows.values()])
     if not np.all(np.isfinite(row_x)):
         raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
+    check_plausible(row_x, "geometry.rows", path)
     n_rows, n_ang = len(row_labels), g.angles.count
     radius = _per_row(g.radius, n_rows, path, "geometry.radius")
     row_width = _per_row(g.row_width, n_rows, path, "geometry.row_width")
@@ -410,6 +411,10 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     if st.axial_position is not None and not math.isfinite(st.axial_position):
         raise ConfigError(f"expected a finite axial position [m], got {st.axial_position!r}",
                           file=path, key="strap.axial_position")
+    for key, value in (("strap.axial_position", st.axial_position),
+                       ("strap.handle_angles", st.handle_angles)):
+        if value is not None:
+            check_plausible(value, key, path)
 
     law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
                                            labels, path, base)
@@ -420,6 +425,9 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
             check_plausible(cont.young_modulus, "tissue.continuum.young_modulus", path)
         if cont.patch_gap:                       # 0: tiled plates
             check_plausible(cont.patch_gap, "tissue.continuum.patch_gap", path)
+        for key in ("max_force", "max_moment"):
+            if getattr(cont, key) is not None:
+                check_plausible(getattr(cont, key), f"tissue.continuum.{key}", path)
     if cont is not None and cont.ogden_alpha is not None and cont.law != "ogden":
         raise ConfigError(f"applies to tissue.continuum.law ogden only, got law {cont.law!r}",
                           file=path, key="tissue.continuum.ogden_alpha")

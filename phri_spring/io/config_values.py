@@ -25,6 +25,10 @@ PLAUSIBLE_RANGES = {
     # limb segments: a finger (about 8 mm) to a thigh (about 0.1 m); a torso belt 0.2 m
     "geometry.radius": (0.003, 0.5, "m", "a limb segment's radius"),
     "geometry.row_width": (0.001, 0.5, "m", "a cuff row's width"),
+    # rows and strap handles lie along one limb segment (an upper arm is about 0.3 m long)
+    "geometry.rows": (-1.0, 1.0, "m", "a row's position along a limb segment"),
+    "strap.axial_position": (-1.0, 1.0, "m", "a strap's position along a limb segment"),
+    "strap.handle_angles": (-720.0, 720.0, "deg", "two turns either way"),
     "geometry.angles.start": (-360.0, 360.0, "deg", "one turn either way"),
     # below 0.1 deg an element is a sliver (0.08 mm on a 45 mm arm) that carries nothing
     "geometry.angles.step": (0.1, 360.0, "deg", "an element at least 0.1 deg wide"),
@@ -51,6 +55,10 @@ PLAUSIBLE_RANGES = {
     "tissue.continuum.young_modulus": (100.0, 1.0e8, "Pa", "soft tissue"),
     # 0 tiles the plates; a positive gap thinner than 0.01 mm leaves slivers no mesh resolves
     "tissue.continuum.patch_gap": (1.0e-5, 0.05, "m", "0, or free skin 0.01-50 mm wide"),
+    # the hyperelastic layer's identified range: the paper's largest loads are about 55 N
+    # and 2 N*m; 1 kN and 100 N*m would tear any cuff off an arm
+    "tissue.continuum.max_force": (0.0, 1000.0, "N", "a load a cuff carries"),
+    "tissue.continuum.max_moment": (0.0, 100.0, "N*m", "a moment a cuff carries"),
 }
 
 
