@@ -7,8 +7,9 @@ and the forces of every element through the single-sample
 sample, so friction follows the loading path), zeroes them by the baseline as
 ``phri simulate`` does, and hands the results to its outputs: the forces table
 (the columns of ``phri simulate``, :class:`~phri_spring.io.live_outputs.LiveTable`),
-an LSL outlet, alarm lines when the peak pressure ratio crosses a threshold and
-when it comes back, and any number of observers (:meth:`LiveRun.subscribe`:
+an LSL outlet, alarm lines when the peak pressure ratio reaches a threshold and
+when it has come back below a lower clear level for long enough (hysteresis: no
+chatter), and any number of observers (:meth:`LiveRun.subscribe`:
 a dashboard gets a :class:`LiveSnapshot` per sample).
 
 A ``first:SECONDS`` or ``window:T0:T1`` baseline is the mean wrench of the
