@@ -61,7 +61,7 @@ ABSURD = [
     ("geometry.rows", {"A": 1e300}, ("-1 to 1",)),
     ("strap.axial_position", 1e300, ("-1 to 1",)),
     ("strap.handle_angles", [1e300, 0.0], ("-720 to 720",)),
-    ("tissue.continuum.max_force", 1e300, ("0 to 1000",)),
+    ("tissue.continuum.max_force", 1e300, ("0 to 10000",)),
 ]
 
 
