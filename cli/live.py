@@ -36,7 +36,17 @@ from ._common import ArmChoice, info, progress_enabled
 @click.option("--alarm", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="RATIO",
               help="A line on stderr when the peak pressure / pain threshold reaches RATIO, "
-                   "and one when it comes back below.")
+                   "and one when it has come back below the clear level (--alarm-clear) and "
+                   "has been raised for --alarm-hold seconds: a ratio dithering at RATIO "
+                   "raises it once.")
+@click.option("--alarm-clear", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="RATIO",
+              help="The ratio below which the alarm clears, at most --alarm.  [default: 0.9 "
+                   "times --alarm]")
+@click.option("--alarm-hold", type=click.FloatRange(min=0), default=0.5, show_default=True,
+              metavar="S",
+              help="Shortest time [s] (of the stream's clock) the alarm stays raised; 0 with "
+                   "--alarm-clear equal to --alarm: no hysteresis.")
 @click.option("--duration", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="S", help="Stop after S seconds [s].")
 @click.option("--max-samples", type=click.IntRange(min=1), default=None, metavar="N",
@@ -57,9 +67,9 @@ from ._common import ArmChoice, info, progress_enabled
 @click.option("--progress/--no-progress", default=None,
               help="A status line on stderr (default: only when stderr is a terminal).")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
-def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, duration,
-         max_samples, columns, counts_per_force, counts_per_torque, stall_timeout, decimals,
-         progress, quiet):
+def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm_clear,
+         alarm_hold, duration, max_samples, columns, counts_per_force, counts_per_torque,
+         stall_timeout, decimals, progress, quiet):
     """Predict the force on every cuff element for each sample of a live wrench stream.
 
     Every sample goes through CONFIG's model (single-sample solver, warm-started)
@@ -73,16 +83,19 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, durat
       phri live CONFIG --source netft:192.168.1.1 --lsl-out cuff --alarm 0.8
       phri live CONFIG --source lsl:ForceTorque --out run.parquet --baseline first:2
     """
+    from phri_spring.workflows.live import check_alarm_settings
     from phri_spring.workflows.simulate import parse_baseline
 
     base = parse_baseline(baseline)
+    check_alarm_settings(alarm, alarm_clear, alarm_hold)
     dash = None
     if dashboard is not None:
         from phri_spring.io.live_dashboard import LiveDashboard, parse_address
 
         dash = LiveDashboard(*parse_address(dashboard))       # bound now: a port in use fails here
     try:
-        _live(config, source, arm, output, lsl_out, dash, base, alarm, duration, max_samples,
+        _live(config, source, arm, output, lsl_out, dash, base, (alarm, alarm_clear, alarm_hold),
+              duration, max_samples,
               columns, counts_per_force, counts_per_torque, stall_timeout, decimals, progress,
               quiet)
     finally:
@@ -90,15 +103,16 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, durat
             dash.close()
 
 
-def _live(config, source, arm, output, lsl_out, dash, base, alarm, duration, max_samples,
-          columns, counts_per_force, counts_per_torque, stall_timeout, decimals, progress,
-          quiet):
+def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, duration,
+          max_samples, columns, counts_per_force, counts_per_torque, stall_timeout, decimals,
+          progress, quiet):
     from phri_spring.errors import UsageError
     from phri_spring.io.config import load_config
     from phri_spring.io.live_sources import import_pylsl, make_source
     from phri_spring.io.logs import parse_column_map, reader_options
     from phri_spring.workflows.live import LiveRun
 
+    alarm, alarm_clear, alarm_hold = alarm_settings
     colmap = parse_column_map(columns)
     if lsl_out is not None:
         if not lsl_out.strip():
@@ -123,7 +137,8 @@ def _live(config, source, arm, output, lsl_out, dash, base, alarm, duration, max
         sys.stderr.flush()
 
     run = LiveRun(cfg, src, arm=arm, baseline=base, output=output, decimals=decimals,
-                  lsl_out=lsl_out, alarm=alarm, duration=duration, max_samples=max_samples,
+                  lsl_out=lsl_out, alarm=alarm, alarm_clear=alarm_clear, alarm_hold=alarm_hold,
+                  duration=duration, max_samples=max_samples,
                   notify=notify)
     if dash is not None:
         dash.set_layout(run.labels, cfg.row_labels, cfg.angle_count, alarm=alarm,

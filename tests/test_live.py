@@ -146,24 +146,31 @@ def test_malformed_lines_are_counted_reported_and_skipped(tmp_path):
 
 
 # --------------------------------------------------------------------------- alarm, observers
-def crossings(ratio: np.ndarray, thr: float):
-    on, ups, downs = False, 0, 0
-    for r in ratio:
+def crossings(ratio: np.ndarray, thr: float, clear=None, hold=0.0, times=None):
+    """(raises, clears, times of the raises, times of the clears) of an alarm raised at
+    ``thr``, cleared below ``clear`` (default ``thr``) after ``hold`` seconds raised."""
+    clear = thr if clear is None else clear
+    times = np.arange(len(ratio)) if times is None else times
+    on, since, ups, downs = False, 0.0, [], []
+    for t, r in zip(times, ratio):
         if not on and r >= thr:
-            on, ups = True, ups + 1
-        elif on and r < thr:
-            on, downs = False, downs + 1
-    return ups, downs
+            on, since = True, t
+            ups.append(t)
+        elif on and r < clear and t - since >= hold:
+            on = False
+            downs.append(t)
+    return len(ups), len(downs), ups, downs
 
 
 def test_alarm_lines_follow_the_peak_ratio_of_simulate(tmp_path):
     ref = simulate(tmp_path, LOG)
     ratio = ref["peak_pressure_to_pain_threshold"].to_numpy()
     thr = float(np.quantile(ratio, 0.8))
-    ups, downs = crossings(ratio, thr)
+    ups, downs, _, _ = crossings(ratio, thr)
     assert ups >= 2
+    # clear level = raise level, no hold: no hysteresis, every crossing
     res = run("live", HARMONY_CONFIG, "--source", "-", "--alarm", f"{thr!r}",
-              stdin=LOG.read_bytes())
+              "--alarm-clear", f"{thr!r}", "--alarm-hold", "0", stdin=LOG.read_bytes())
     assert res.exit_code == 0, res.output
     assert res.stderr.count("ALARM: peak pressure ratio") == ups
     assert res.stderr.count("alarm cleared") == downs
@@ -181,7 +188,7 @@ def test_observers_get_every_sample(tmp_path):
     ref = simulate(tmp_path, write_log(tmp_path / "log.csv", lines))
     thr = float(np.median(ref["peak_pressure_to_pain_threshold"]))
     source = StdinCsvSource(io.BytesIO(("\n".join(lines) + "\n").encode()))
-    live = LiveRun(load_config(HARMONY_CONFIG), source, alarm=thr)
+    live = LiveRun(load_config(HARMONY_CONFIG), source, alarm=thr, alarm_clear=thr, alarm_hold=0)
     snaps = []
     live.subscribe(snaps.append)
     summary = live.run(catch_signals=False)
@@ -193,6 +200,50 @@ def test_observers_get_every_sample(tmp_path):
     np.testing.assert_array_equal(alarm, ref["peak_pressure_to_pain_threshold"] >= thr)
     assert snaps[-1].health.samples == 300 and snaps[-1].health.malformed == 0
     assert snaps[0].labels == tuple(LABELS)
+
+
+def _hovering_log(tmp_path, seed=32):
+    """A log at 1 kHz: a push whose peak ratio dithers around one level for 1 s (load-cell
+    noise), then released for 1 s; with simulate's ratio of every sample."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(2000) / 1000.0
+    w = np.zeros((len(t), 6))
+    w[:1000, 1] = -40.0 + rng.normal(0.0, 0.4, 1000)       # Fy [N], 1 % noise
+    lines = [",".join(f"{v:.6g}" for v in (ti, *wi)) for ti, wi in zip(t, w)]
+    log = write_log(tmp_path / "hover.csv", lines)
+    return log, t, simulate(tmp_path, log)["peak_pressure_to_pain_threshold"].to_numpy()
+
+
+def test_a_ratio_hovering_at_the_threshold_raises_the_alarm_once(tmp_path):
+    log, t, ratio = _hovering_log(tmp_path)
+    thr = float(np.median(ratio[:1000]))
+    chatter, _, _, _ = crossings(ratio, thr, times=t)
+    assert chatter > 20                       # without hysteresis it would chatter
+    # the defaults: clear at 0.9 of the raise level, raised at least 0.5 s
+    ups, downs, t_up, t_down = crossings(ratio, thr, clear=0.9 * thr, hold=0.5, times=t)
+    assert (ups, downs) == (1, 1) and t_down[0] >= 1.0    # cleared by the release only
+    res = run("live", HARMONY_CONFIG, "--source", "-", "--alarm", f"{thr!r}",
+              stdin=log.read_bytes())
+    assert res.exit_code == 0, res.output
+    assert res.stderr.count("ALARM: peak pressure ratio") == 1
+    assert res.stderr.count("alarm cleared") == 1
+    assert f"ALARM: peak pressure ratio {ratio[t == t_up[0]][0]:.3f}" in res.stderr
+    assert f"< {0.9 * thr:g} at t = {t_down[0]:.3f} s" in res.stderr
+    assert "alarms 1;" in res.stderr
+
+
+@pytest.mark.parametrize("clear_frac, hold", [(1.0, 0.05), (0.97, 0.0), (0.99, 0.01)])
+def test_the_clear_level_and_the_hold_time_are_options(tmp_path, clear_frac, hold):
+    log, t, ratio = _hovering_log(tmp_path)
+    thr = float(np.median(ratio[:1000]))
+    clear = clear_frac * thr
+    ups, downs, _, t_down = crossings(ratio, thr, clear=clear, hold=hold, times=t)
+    res = run("live", HARMONY_CONFIG, "--source", "-", "--alarm", f"{thr!r}",
+              "--alarm-clear", f"{clear!r}", "--alarm-hold", hold, stdin=log.read_bytes())
+    assert res.exit_code == 0, res.output
+    assert res.stderr.count("ALARM: peak pressure ratio") == ups
+    assert res.stderr.count("alarm cleared") == downs
+    assert f"at t = {t_down[-1]:.3f} s" in res.stderr
 
 
 # --------------------------------------------------------------------------- Net F/T
@@ -268,6 +319,9 @@ def test_rdt_sequence_gaps_wrap_and_restarts():
     (["--source", "netft:127.0.0.1:99999"], 2, "UDP port"),
     (["--source", "-", "--dashboard", "80800"], 2, "--dashboard"),
     (["--source", "-", "--alarm", "0"], 2, "--alarm"),
+    (["--source", "-", "--alarm", "0.8", "--alarm-clear", "0.9"], 2, "--alarm-clear"),
+    (["--source", "-", "--alarm-clear", "0.7"], 2, "--alarm-clear"),
+    (["--source", "-", "--alarm", "0.8", "--alarm-hold", "-1"], 2, "--alarm-hold"),
     (["--source", "-", "-o", "out.txt2"], 2, "--out"),
 ])
 def test_bad_usage_is_one_line(tmp_path, monkeypatch, args, code, text):

@@ -25,6 +25,7 @@ from .schema_errors import config_error_from
 # the wrench-log columns of docs/model.md section 7, importable from here too
 from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
 from .config_geometry import geometry_sections, per_row_values
+from .config_values import check_plausible
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
@@ -334,12 +335,17 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     row_x = np.array([float(v) for v in g.rows.values()])
     if not np.all(np.isfinite(row_x)):
         raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
+    check_plausible(row_x, "geometry.rows", path)
     n_rows, n_ang = len(row_labels), g.angles.count
+    # the radius (and every section's distance from the axis) is checked against
+    # physics.sections.RHO_RANGE_M there
     sections, radius, taper = geometry_sections(g, n_rows, path)
     row_width = per_row_values(g.row_width, n_rows, path, "geometry.row_width")
+    check_plausible(row_width, "geometry.row_width", path)
     for k in ("start", "step"):
         if not math.isfinite(getattr(g.angles, k)):
             raise ConfigError("expected a finite angle [deg]", file=path, key=f"geometry.angles.{k}")
+    check_plausible(g.angles.start, "geometry.angles.start", path)
     if n_ang > 1 and not g.angles.step > 0:
         raise ConfigError(f"expected a positive step [deg], got {g.angles.step}", file=path,
                           key="geometry.angles.step")
@@ -347,6 +353,10 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     if not width > 0:
         raise ConfigError("expected a positive angular width [deg] (give geometry.angles.width "
                           "when count is 1)", file=path, key="geometry.angles.width")
+    if n_ang > 1:
+        check_plausible(g.angles.step, "geometry.angles.step", path)
+    if g.angles.width is not None:
+        check_plausible(g.angles.width, "geometry.angles.width", path)
     if n_ang * width > 360.0 + 1e-9:
         raise ConfigError(f"{n_ang} elements of {width} deg span more than 360 deg", file=path,
                           key="geometry.angles")
@@ -362,6 +372,9 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                             key="tissue.stiffness", allow_inf=False, base_dir=base)
     k_c = resolve_stiffness(root.cuff.stiffness, n_rows, n_ang, labels, path=path,
                             key="cuff.stiffness", allow_inf=True, base_dir=base)
+    for key, k in (("tissue.stiffness", k_t), ("cuff.stiffness", k_c)):
+        bad = ~(k >= 1.0)
+        check_plausible(k, key, path, f" at {labels[int(np.argmax(bad))]}" if bad.any() else "")
     stiffness_files = tuple(_csv_path(v, base) for v in (root.tissue.stiffness, root.cuff.stiffness)
                             if isinstance(v, str))
 
@@ -384,6 +397,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     pos = np.array(lc.position, dtype=float)
     if not np.all(np.isfinite(pos)):
         raise ConfigError("expected finite coordinates [m]", file=path, key="load_cell.position")
+    check_plausible(pos, "load_cell.position", path)
     unknown_cols = [c for c in lc.columns if c not in LOG_COLUMNS]
     if unknown_cols:
         close = difflib.get_close_matches(unknown_cols[0], LOG_COLUMNS, n=1, cutoff=0.5)
@@ -395,16 +409,36 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     st = root.strap
     if not math.isfinite(st.tension):
         raise ConfigError("expected a finite tension [N]", file=path, key="strap.tension")
+    check_plausible(st.tension, "strap.tension", path)
+    check_plausible(root.tissue.indenter_diameter, "tissue.indenter_diameter", path)
+    itf = root.interface
+    for key, value in (("interface.shear_ratio", itf.shear_ratio),
+                       ("interface.friction_coefficient", itf.friction_coefficient)):
+        if value is not None:
+            check_plausible(value, key, path)
     if st.handle_angles is not None and not all(math.isfinite(a) for a in st.handle_angles):
         raise ConfigError(f"expected two finite angles [deg], got {list(st.handle_angles)}",
                           file=path, key="strap.handle_angles")
     if st.axial_position is not None and not math.isfinite(st.axial_position):
         raise ConfigError(f"expected a finite axial position [m], got {st.axial_position!r}",
                           file=path, key="strap.axial_position")
+    for key, value in (("strap.axial_position", st.axial_position),
+                       ("strap.handle_angles", st.handle_angles)):
+        if value is not None:
+            check_plausible(value, key, path)
 
     law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
                                            labels, path, base)
     cont = root.tissue.continuum
+    if cont is not None:
+        check_plausible(cont.thickness, "tissue.continuum.thickness", path)
+        if cont.young_modulus is not None:
+            check_plausible(cont.young_modulus, "tissue.continuum.young_modulus", path)
+        if cont.patch_gap:                       # 0: tiled plates
+            check_plausible(cont.patch_gap, "tissue.continuum.patch_gap", path)
+        for key in ("max_force", "max_moment"):
+            if getattr(cont, key) is not None:
+                check_plausible(getattr(cont, key), f"tissue.continuum.{key}", path)
     if cont is not None and cont.ogden_alpha is not None and cont.law != "ogden":
         raise ConfigError(f"applies to tissue.continuum.law ogden only, got law {cont.law!r}",
                           file=path, key="tissue.continuum.ogden_alpha")
@@ -506,7 +540,7 @@ def _tissue_law(law, values, n_rows, n_angles, labels, path, base):
         out[key] = resolve_stiffness(value, n_rows, n_angles, labels, path=path,
                                      key=f"tissue.{key}", minimum=p.minimum, unit=p.unit,
                                      what=key.replace("_", " "), csv_column=p.csv_column,
-                                     base_dir=base)
+                                     base_dir=base, maximum=p.maximum)
     return law, TISSUE_LAWS[law], out
 
 

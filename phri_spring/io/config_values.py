@@ -16,7 +16,61 @@ import numpy as np
 
 from ..errors import ConfigError, ConfigTypeError, DataError
 
-__all__ = ["resolve_stiffness"]
+__all__ = ["resolve_stiffness", "PLAUSIBLE_RANGES", "check_plausible"]
+
+#: key -> (lowest, highest, unit, why): values outside run into overflow or a singular
+#: model, or describe no cuff and no arm; docs/model.md section 6 ("Plausible ranges")
+#: gives each range's source. Values inside are solved (or refused with a physical reason).
+PLAUSIBLE_RANGES = {
+    "geometry.row_width": (0.001, 0.5, "m", "a cuff row's width"),
+    # rows and strap handles lie along one limb segment (an upper arm is about 0.3 m long)
+    "geometry.rows": (-1.0, 1.0, "m", "a row's position along a limb segment"),
+    "strap.axial_position": (-1.0, 1.0, "m", "a strap's position along a limb segment"),
+    "strap.handle_angles": (-720.0, 720.0, "deg", "two turns either way"),
+    "geometry.angles.start": (-360.0, 360.0, "deg", "one turn either way"),
+    # below 0.1 deg an element is a sliver (0.08 mm on a 45 mm arm) that carries nothing
+    "geometry.angles.step": (0.1, 360.0, "deg", "an element at least 0.1 deg wide"),
+    "geometry.angles.width": (0.1, 360.0, "deg", "an element at least 0.1 deg wide"),
+    # the load cell sits on the cuff's mount, centimetres from the limb's axis
+    "load_cell.position": (-2.0, 2.0, "m", "a load cell on the cuff's mount"),
+    # 414 N/m: the human preset under a 9 mm indenter; 1 N/m is 400 times softer
+    "tissue.stiffness": (1.0, math.inf, "N/m", "a tissue that holds a cuff"),
+    "cuff.stiffness": (1.0, math.inf, "N/m", "a cuff that holds a load (.inf: rigid)"),
+    # indenters of soft-tissue studies: 2-20 mm (the paper's: 9 mm)
+    "tissue.indenter_diameter": (0.0005, 0.1, "m", "an indenter's diameter"),
+    # eta = k_s / k_n; the default 1 / (2 (1 + nu)) is 0.33-0.5
+    "interface.shear_ratio": (0.01, 100.0, "-", "shear to normal stiffness"),
+    # reviews of human skin friction (Derler & Gerhardt 2012, Tribol. Lett. 45:1-27) find
+    # coefficients of about 0.1 to 2, wet skin on rubbers a few; 10 is far past any
+    "interface.friction_coefficient": (0.0, 10.0, "-", "skin on any cuff material"),
+    # the paper's measured pretension is 15 N; at 1 kN a 25 mm strap on a 45 mm arm
+    # presses 890 kPa (T / (R w)), seven times the lowest upper-arm pain threshold
+    "strap.tension": (0.0, 1000.0, "N", "a strap on a limb"),
+    # skin alone is 1-2 mm thick; a thinner layer is no continuum to mesh
+    "tissue.continuum.thickness": (0.001, math.inf, "m", "soft tissue over the bone"),
+    # in-vivo initial moduli of relaxed limb tissue span 0.22-58.4 kPa (Zheng & Mak 1999,
+    # J. Biomech. Eng. 121:330-339); 100 MPa is tendon, no longer soft tissue
+    "tissue.continuum.young_modulus": (100.0, 1.0e8, "Pa", "soft tissue"),
+    # 0 tiles the plates; a positive gap thinner than 0.01 mm leaves slivers no mesh resolves
+    "tissue.continuum.patch_gap": (1.0e-5, 0.05, "m", "0, or free skin 0.01-50 mm wide"),
+    # the hyperelastic layer's identified range: the paper's largest loads are about 55 N
+    # and 2 N*m; far below 10 kN and 1 kN*m the identification itself tells a range its FE
+    # cannot reach
+    "tissue.continuum.max_force": (0.0, 1.0e4, "N", "a load on a limb"),
+    "tissue.continuum.max_moment": (0.0, 1.0e3, "N*m", "a moment on a limb"),
+}
+
+
+def check_plausible(value, key: str, path=None, where: str = "") -> None:
+    """Refuse (one line naming ``key``) a value outside :data:`PLAUSIBLE_RANGES`."""
+    lo, hi, unit, why = PLAUSIBLE_RANGES[key]
+    arr = np.asarray(value, dtype=float).ravel()
+    bad = ~((arr >= lo) & (arr <= hi))
+    if bad.any():
+        i = int(np.argmax(bad))
+        span = f">= {lo:g}" if math.isinf(hi) else f"{lo:g} to {hi:g}"
+        raise ConfigError(f"expected {span} [{unit}] ({why}; docs/model.md section 6, "
+                          f"plausible ranges){where}, got {arr[i]:g}", file=path, key=key)
 
 
 def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = False, *,
@@ -79,15 +133,16 @@ def _read_stiffness_csv(csv_path: Path, labels, path, key, allow_inf: bool = Fal
 def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, key="",
                       allow_inf: bool = False, base_dir: Optional[Path] = None,
                       minimum: Optional[float] = None, unit: str = "N/m",
-                      what: str = "stiffness", csv_column: Optional[str] = None) -> np.ndarray:
+                      what: str = "stiffness", csv_column: Optional[str] = None,
+                      maximum: float = math.inf) -> np.ndarray:
     """Turn any stiffness value form of docs/model.md section 6 into an (n,) array [N/m], row-major.
 
     Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
     rows x angles list, a mapping label -> value covering every element, or a
     path (relative to ``base_dir``) to a CSV written by ``phri fit-stiffness``.
     With ``minimum`` (a tissue law's parameter, in ``unit``): finite values >=
-    ``minimum`` instead of positive ones, read from the CSV's ``csv_column`` (no CSV
-    form without one).
+    ``minimum`` (and <= ``maximum``) instead of positive ones, read from the CSV's
+    ``csv_column`` (no CSV form without one).
     """
     n = n_rows * n_angles
     shape_txt = f"{n_rows} rows x {n_angles} angles"
@@ -99,8 +154,10 @@ def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, k
             want = (f"a positive {what} (.inf allowed)" if allow_inf else
                     f"a positive finite {what}")
         else:
-            bad = ~(np.isfinite(arr) & (arr >= minimum))
-            want = f"a finite {what} >= {minimum:g}"
+            bad = ~(np.isfinite(arr) & (arr >= minimum) & (arr <= maximum))
+            want = (f"a finite {what} >= {minimum:g}" if math.isinf(maximum) else
+                    f"a finite {what} >= {minimum:g} and <= {maximum:g} (docs/model.md "
+                    f"section 6, plausible ranges)")
         if bad.any():
             i = int(np.argmax(bad.ravel()))
             lab = f" at {labels[i]}" if arr.size == n else ""

@@ -60,6 +60,9 @@ class LawParameter:
         Value when the config does not give the key.
     minimum : float
         Smallest accepted value (inclusive); values must be finite.
+    maximum : float
+        Largest accepted value (inclusive): past it the law overflows or describes no
+        tissue (a config's value above it is refused naming the key).
     csv_column : str, optional
         Column of a ``phri fit-stiffness`` CSV holding the parameter per location, so
         that the config's value may be that CSV's path.
@@ -71,6 +74,7 @@ class LawParameter:
     default: float = 0.0
     minimum: float = 0.0
     csv_column: str | None = None
+    maximum: float = float("inf")
 
 
 #: name -> law class, every law a config can name (``tissue.law``)
@@ -138,9 +142,10 @@ class TissueLaw:
         for p in self.parameters:
             v = params.pop(p.key, p.default)
             arr = np.broadcast_to(np.asarray(v, dtype=float), (self.n,)).copy()
-            if not (np.isfinite(arr).all() and (arr >= p.minimum).all()):
-                raise ModelInputError(f"{p.key}: expected finite values >= {p.minimum:g} {p.unit}",
-                                      "tissue_law")
+            if not (np.isfinite(arr).all() and (arr >= p.minimum).all()
+                    and (arr <= p.maximum).all()):
+                raise ModelInputError(f"{p.key}: expected finite values from {p.minimum:g} to "
+                                      f"{p.maximum:g} {p.unit}", "tissue_law")
             self.params[p.key] = arr
         if params:
             raise ModelInputError(f"tissue law {self.name!r}: unknown parameter(s) "
@@ -265,7 +270,11 @@ class ExponentialLaw(TissueLaw):
     name = "exponential"
     parameters = (LawParameter("stiffening", "1/m", "stiffening rate beta of "
                                "F = (k0/beta)(exp(beta d) - 1)", default=0.0, minimum=0.0,
-                               csv_column="stiffening_per_m"),)
+                               csv_column="stiffening_per_m",
+                               # 1/beta >= 0.1 mm: soft tissue's fits are about 50-200 1/m
+                               # (docs/model.md 11.3); far past them exp(beta d) overflows
+                               # at displacements of centimetres
+                               maximum=1.0e4),)
 
     def linear_here(self) -> bool:
         return bool(np.all(self.params["stiffening"] == 0.0))

@@ -52,6 +52,13 @@ def _check(cfg: Config, E) -> None:
         raise ConfigError(f"{law} is identified for a rigid cuff; "
                           "expected cuff.stiffness: inf (a compliant cuff runs with the "
                           "linear continuum)", file=path, key="cuff.stiffness")
+    if cfg.continuum_patch_gap is not None and not cfg.continuum_patch_gap > 0:
+        # the hyperelastic FE moves each plate's skin nodes as one rigid body: tiled plates
+        # share their edge nodes, which two neighbouring plates would move differently
+        raise ConfigError(f"{law} needs free skin between the plates (tiled plates share "
+                          "edge nodes that two patches would move differently); expected "
+                          "tissue.continuum.patch_gap > 0 m or no patch_gap (default 2 mm)",
+                          file=path, key="tissue.continuum.patch_gap")
     if cfg.continuum_surface_stiffness is not None:
         raise ConfigError(f"{law} runs the built-in FE; expected no "
                           "tissue.continuum.surface_stiffness", file=path,

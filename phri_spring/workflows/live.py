@@ -7,8 +7,9 @@ and the forces of every element through the single-sample
 sample, so friction follows the loading path), zeroes them by the baseline as
 ``phri simulate`` does, and hands the results to its outputs: the forces table
 (the columns of ``phri simulate``, :class:`~phri_spring.io.live_outputs.LiveTable`),
-an LSL outlet, alarm lines when the peak pressure ratio crosses a threshold and
-when it comes back, and any number of observers (:meth:`LiveRun.subscribe`:
+an LSL outlet, alarm lines when the peak pressure ratio reaches a threshold and
+when it has come back below a lower clear level for long enough (hysteresis: no
+chatter), and any number of observers (:meth:`LiveRun.subscribe`:
 a dashboard gets a :class:`LiveSnapshot` per sample).
 
 A ``first:SECONDS`` or ``window:T0:T1`` baseline is the mean wrench of the
@@ -34,7 +35,7 @@ from typing import Callable, List, Optional
 
 import numpy as np
 
-from ..errors import DataError
+from ..errors import DataError, UsageError
 from ..io.atomic import check_output_path
 from ..io.config import Config
 from ..io.live_outputs import LiveTable, LslMarkers, LslOutlet
@@ -45,7 +46,8 @@ from .common import cuff_wrench, model_from_config
 from .simulate import (Baseline, _baseline_forces, _extra_arrow_types, parse_baseline,
                        per_sample_extras)
 
-__all__ = ["LiveRun", "LiveSnapshot", "LiveSummary", "StreamHealth"]
+__all__ = ["LiveRun", "LiveSnapshot", "LiveSummary", "StreamHealth", "ALARM_CLEAR_FRACTION",
+           "ALARM_HOLD_S", "check_alarm_settings"]
 
 #: rows per batch written to the table (also written every _FLUSH_S seconds)
 _BATCH_ROWS = 2048
@@ -127,26 +129,57 @@ class LiveSummary:
     baseline_forces: Optional[np.ndarray] = None
 
 
-class _Alarm:
-    """The alarm's state: on when the ratio reaches the threshold, off when it is below."""
+#: the alarm clears below this fraction of its raise level unless told (--alarm-clear): a
+#: ratio dithering by the noise of a load cell around the threshold raises it once
+ALARM_CLEAR_FRACTION = 0.9
+#: and not before it has been on this long [s] of stream time (--alarm-hold)
+ALARM_HOLD_S = 0.5
 
-    def __init__(self, threshold: Optional[float]):
+
+class _Alarm:
+    """The alarm's state, with hysteresis: raised when the ratio reaches ``threshold``;
+    cleared when it is below ``clear`` once the alarm has been on ``hold`` seconds of the
+    stream's time (a stream whose time goes back, restarted, counts as past the hold)."""
+
+    def __init__(self, threshold: Optional[float], clear: Optional[float] = None,
+                 hold: float = ALARM_HOLD_S):
         self.threshold = threshold
+        self.clear = (None if threshold is None else
+                      threshold * ALARM_CLEAR_FRACTION if clear is None else float(clear))
+        self.hold = float(hold)
         self.on = False
         self.count = 0
+        self._since = math.nan
 
-    def update(self, ratio: float):
-        """'on', 'off' or None (no change); a NaN ratio changes nothing."""
+    def update(self, ratio: float, t: float = math.nan):
+        """'on', 'off' or None (no change) at the sample of time ``t`` [s]; a NaN ratio
+        changes nothing."""
         if self.threshold is None or not math.isfinite(ratio):
             return None
         if not self.on and ratio >= self.threshold:
-            self.on = True
+            self.on, self._since = True, t
             self.count += 1
             return "on"
-        if self.on and ratio < self.threshold:
-            self.on = False
-            return "off"
+        if self.on and ratio < self.clear:
+            held = t - self._since
+            if not held < self.hold or held < 0:      # NaN times: no hold to wait for
+                self.on = False
+                return "off"
         return None
+
+
+def check_alarm_settings(alarm, clear, hold) -> None:
+    """One line naming the option for alarm settings that cannot work together."""
+    if clear is not None and alarm is None:
+        raise UsageError("the clear level needs a raise level; expected --alarm RATIO too",
+                         key="--alarm-clear")
+    if alarm is not None and not (math.isfinite(alarm) and alarm > 0):
+        raise UsageError(f"expected a positive ratio, got {alarm!r}", key="--alarm")
+    if clear is not None and not (0 < clear <= alarm):
+        raise UsageError(f"expected a ratio > 0 and <= --alarm {alarm:g} (the alarm clears "
+                         f"below the level that raised it), got {clear!r}", key="--alarm-clear")
+    if not (math.isfinite(hold) and hold >= 0):
+        raise UsageError(f"expected a time >= 0 [s], got {hold!r}", key="--alarm-hold")
 
 
 class LiveRun:
@@ -169,6 +202,11 @@ class LiveRun:
         Name of an LSL outlet of the results (and ``NAME-markers`` for alarms and gaps).
     alarm : float, optional
         Peak pressure ratio [-] that raises the alarm.
+    alarm_clear : float, optional
+        Ratio [-] below which the alarm clears (0 < alarm_clear <= alarm); default
+        :data:`ALARM_CLEAR_FRACTION` times ``alarm``.
+    alarm_hold : float
+        Shortest time the alarm stays raised [s] of the stream's time (>= 0).
     duration : float, optional
         Stop after this many seconds of wall time [s].
     max_samples : int, optional
@@ -189,6 +227,7 @@ class LiveRun:
     def __init__(self, config: Config, source: LiveSource, *, arm: str = "compliant",
                  baseline="none", output=None, decimals: Optional[int] = 6,
                  lsl_out: Optional[str] = None, alarm: Optional[float] = None,
+                 alarm_clear: Optional[float] = None, alarm_hold: float = ALARM_HOLD_S,
                  duration: Optional[float] = None, max_samples: Optional[int] = None,
                  notify: Optional[Callable[[str], None]] = None, model=None, cache_dir=None):
         self.cfg = config
@@ -206,10 +245,11 @@ class LiveRun:
         self.duration = duration
         self.max_samples = max_samples
         self.notify = notify or (lambda line: None)
+        check_alarm_settings(alarm, alarm_clear, alarm_hold)
         self.model = model if model is not None else model_from_config(config, arm,
                                                                        cache_dir=cache_dir)
         self.labels = tuple(self.model.labels)
-        self._alarm = _Alarm(alarm)
+        self._alarm = _Alarm(alarm, alarm_clear, alarm_hold)
         self._observers: List[Callable[[LiveSnapshot], None]] = []
         self._stop_signal: Optional[int] = None
         self._stop_event = threading.Event()
@@ -367,14 +407,15 @@ class LiveRun:
         if ratio > summary.max_ratio:
             summary.max_ratio, summary.max_ratio_time = ratio, t
             summary.max_ratio_element = self.labels[j]
-        change = self._alarm.update(ratio)
+        change = self._alarm.update(ratio, t)
         if change is not None:
             thr = self._alarm.threshold
             if change == "on":
                 line = (f"ALARM: peak pressure ratio {ratio:.3f} >= {thr:g} at t = {t:.3f} s "
                         f"(element {self.labels[j]}, {peak:.4g} kPa)")
             else:
-                line = f"alarm cleared: peak pressure ratio {ratio:.3f} < {thr:g} at t = {t:.3f} s"
+                line = (f"alarm cleared: peak pressure ratio {ratio:.3f} < {self._alarm.clear:g} "
+                        f"at t = {t:.3f} s")
             self.notify(line)
             if self._markers is not None:
                 self._markers.push(f"alarm {change}: ratio {ratio:.4f}", t)
