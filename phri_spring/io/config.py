@@ -24,7 +24,8 @@ from ..errors import ConfigError
 from .schema_errors import config_error_from
 # the wrench-log columns of docs/model.md section 7, importable from here too
 from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
-from .config_geometry import geometry_sections, per_row_values
+from .config_geometry import check_scan_alone, geometry_sections, per_row_values, scan_geometry
+from .scan import scan_cuff
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
@@ -64,6 +65,9 @@ class _Geometry(_Strict):
     section: Optional[Union[str, dict]] = None
     #: taper half-angle, positive when the limb narrows distally (docs/model.md section 13)
     taper_deg: float = Field(default=0.0, json_schema_extra=_unit("deg"))
+    #: a 3D surface scan of the limb (docs/scans.md): {file, unit, origin, axis, y_axis,
+    #: max_triangles, smoothing}; checked by io.scan, exclusive of radius, section and taper
+    scan: Optional[Any] = None
 
     @field_validator("rows")
     @classmethod
@@ -239,6 +243,8 @@ class Config:
     sections: Optional[tuple] = field(default=None, kw_only=True)
     #: taper half-angle alpha [deg] (geometry.taper_deg)
     taper_deg: float = field(default=0.0, kw_only=True)
+    #: geometry.scan, read (io.scan.ScanCuff): the elements' geometry on the scan; None without
+    scan: Optional[Any] = field(default=None, kw_only=True, repr=False)
     tissue_stiffness: np.ndarray           # (n,), as configured, in tissue_basis
     tissue_basis: str
     indenter_diameter: float
@@ -285,6 +291,8 @@ class Config:
         """The element geometry (:class:`~phri_spring.physics.geometry.CuffGeometry`) it describes."""
         from ..physics.geometry import cuff_geometry, section_geometry
 
+        if self.scan is not None:
+            return scan_geometry(self)
         if self.sections is None:
             return cuff_geometry(self.row_x, self.radius, self.row_width, self.angle_start_deg,
                                  self.angle_step_deg, self.angle_count, self.angle_width_deg,
@@ -297,8 +305,8 @@ class Config:
     @property
     def is_circular_cylinder(self) -> bool:
         """Whether the limb is the circular cylinder of docs/model.md section 1 (no
-        geometry.section other than circle, no taper)."""
-        return self.sections is None and self.taper_deg == 0
+        geometry.section other than circle, no taper, no scan)."""
+        return self.sections is None and self.taper_deg == 0 and self.scan is None
 
     @property
     def n_rows(self) -> int:
@@ -335,7 +343,11 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     if not np.all(np.isfinite(row_x)):
         raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
     n_rows, n_ang = len(row_labels), g.angles.count
-    sections, radius, taper = geometry_sections(g, n_rows, path)
+    if g.scan is not None:
+        check_scan_alone(g, path)
+        sections, radius, taper = None, None, 0.0
+    else:
+        sections, radius, taper = geometry_sections(g, n_rows, path)
     row_width = per_row_values(g.row_width, n_rows, path, "geometry.row_width")
     for k in ("start", "step"):
         if not math.isfinite(getattr(g.angles, k)):
@@ -402,6 +414,17 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         raise ConfigError(f"expected a finite axial position [m], got {st.axial_position!r}",
                           file=path, key="strap.axial_position")
 
+    scan = None
+    if g.scan is not None:
+        width_deg = width
+        theta = np.radians(g.angles.start + g.angles.step * np.arange(n_ang))
+        strap_x = None
+        if st.model == "handles":
+            strap_x = float(np.mean(row_x)) if st.axial_position is None else st.axial_position
+        scan = scan_cuff(g.scan, row_x, row_width, theta, np.full(n_ang, np.radians(width_deg)),
+                         base, strap_x=strap_x, config_path=path, row_names=row_labels)
+        radius = scan.radius
+
     law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
                                            labels, path, base)
     cont = root.tissue.continuum
@@ -418,7 +441,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         radius=radius, row_width=row_width, angle_start_deg=float(g.angles.start),
         angle_step_deg=float(g.angles.step), angle_count=int(n_ang),
         angle_width_deg=None if g.angles.width is None else float(g.angles.width),
-        labels=labels, sections=sections, taper_deg=taper, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
+        labels=labels, sections=sections, taper_deg=taper, scan=scan, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
         indenter_diameter=float(root.tissue.indenter_diameter),
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
         loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),
@@ -430,7 +453,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
         strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
         raw=original, stiffness_files=stiffness_files + ((surface,) if surface else ())
-        + tuple(_csv_path(v, base) for v in law_values.values() if isinstance(v, str)),
+        + tuple(_csv_path(v, base) for v in law_values.values() if isinstance(v, str))
+        + ((scan.file,) if scan is not None else ()),
         tissue_stiffness_csv=_csv_path(root.tissue.stiffness, base),
         continuum_thickness=None if cont is None else float(cont.thickness),
         continuum_young_modulus=None if cont is None or cont.young_modulus is None

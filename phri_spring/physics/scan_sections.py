@@ -52,7 +52,8 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import ModelInputError
 
 __all__ = ["ScanElements", "ScanMesh", "SectionLoop", "prepare_scan_mesh", "section_loops",
-           "axis_loop", "scan_element_geometry", "clipped_area", "DEFAULT_SMOOTHING"]
+           "axis_loop", "scan_element_geometry", "clipped_area", "DEFAULT_SMOOTHING", "ray_hits",
+           "tangent_angle"]
 
 #: the least smoothing length h [m]: the half-length of the arc the outline's tangent angle
 #: is averaged over, and the radius the surface normal is averaged over (then 2h for both):
@@ -350,7 +351,7 @@ def _wedge_planes(lo: float, hi: float):
     return [((0.0, -np.sin(lo), np.cos(lo)), 0.0), ((0.0, np.sin(hi), -np.cos(hi)), 0.0)]
 
 
-def _ray_hits(yz: np.ndarray, angles: np.ndarray):
+def ray_hits(yz: np.ndarray, angles: np.ndarray):
     """Farthest crossing of each ray (from the origin at ``angles``) with the closed polyline
     ``yz``: segment index (k,) and fraction along it; -1 where a ray misses."""
     p, d = yz, np.roll(yz, -1, axis=0) - yz
@@ -425,7 +426,7 @@ def _patch_normals(mesh: ScanMesh, comp: int, points: np.ndarray, h: float,
     return out
 
 
-def _tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
+def tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
     """The outline's tangent angle at arc positions ``pos``, smoothed over +-h.
 
     A window average misses the true angle by h^2/6 times the rate of change of curvature (an
@@ -494,7 +495,7 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
         cum = np.concatenate([[0.0], np.cumsum(seg)])
         # ray crossings: centre rays (points, normals) and edge rays (arcs, turning)
         angles = np.concatenate([th, lo_ray, hi_ray])
-        k, s = _ray_hits(yz, angles)
+        k, s = ray_hits(yz, angles)
         if np.any(k < 0):
             raise ModelInputError(f"a ray from the axis misses the outline of {names[r]} at x = "
                                   f"{x:.4g} m; expected the axis inside the limb", "scan")
@@ -513,7 +514,7 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
         else:
             h = float(smoothing)
         used_h[r] = h
-        turning[sl] = _tangent_angle(yz, pos_hi, h) - _tangent_angle(yz, pos_lo, h)
+        turning[sl] = tangent_angle(yz, pos_hi, h) - tangent_angle(yz, pos_lo, h)
         comp = mesh.face_component[loop.face[0]]
         normals[sl] = _patch_normals(mesh, comp, points[sl], h, loop.face[k[:J]])
         # areas: the surface connected to this outline, clipped to each element's band
