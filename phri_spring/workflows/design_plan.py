@@ -101,6 +101,13 @@ def build_designs(study: Study, base: Config) -> tuple:
         raise ConfigError(f"unknown arm model {study.arm!r}{hint} (expected one of "
                           f"{', '.join(ARM_MODELS)})", file=study.path, key="arm")
     for p in study.parameters:
+        if base.scan is not None and p.path.split("[")[0].split(".")[:2] in (
+                ["geometry", "radius"], ["geometry", "section"], ["geometry", "taper_deg"],
+                ["geometry", "scan"]):
+            raise ConfigError("the config's limb is a scan (geometry.scan): its shape, size and "
+                              "taper come from the scan's surface, so a study cannot vary "
+                              f"{p.path}; vary the rows, widths, angles or the cuff instead",
+                              file=study.path, key=f"vary.{p.path}")
         check_parameter(base.raw, p, study.path)
     values = design_values(study)
     if len(values) == 0:
