@@ -64,6 +64,10 @@ DEFAULT_SMOOTHING = 0.004
 #: distance from a section's plane, as a fraction of the scan's size, within which a vertex
 #: counts as on the plane (well above float32 rounding, far below any scanner's resolution)
 _ON_PLANE = 1e-6
+#: [rad] consecutive outline segments turning less than this are one straight piece (a planar
+#: facet cut on its diagonal, with float32 coordinates, turns by about 1e-7 rad; a limb's
+#: facets turn by 1e-2 rad)
+_COLLINEAR = 1e-5
 
 
 @dataclass(frozen=True, eq=False)
@@ -382,12 +386,27 @@ def _mean_tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray
     keep = length > 0
     d, length = d[keep], length[keep]
     phi = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    # a plane cuts a triangulated surface on its facets' edges and on their diagonals: the
+    # cut of one planar quad is two collinear pieces of unequal length, whose midpoints
+    # would bend the piecewise-linear angle off a straight facet. Collinear runs are one
+    # segment (a turn below _COLLINEAR is float rounding of a planar facet, not shape).
+    turn = (np.roll(phi, -1) - phi + np.pi) % (2 * np.pi) - np.pi
+    corner = np.abs(turn) > _COLLINEAR           # a real corner after segment k
+    s0 = 0.0                                     # arc position where segment 0 starts
+    if corner.any() and not corner.all():
+        i0 = (int(np.flatnonzero(corner)[-1]) + 1) % len(phi)   # a segment that begins a run
+        s0 = float(length[:i0].sum())
+        d, length, corner = np.roll(d, -i0, axis=0), np.roll(length, -i0), np.roll(corner, -i0)
+        run = np.concatenate([[0], np.cumsum(corner[:-1])])
+        length = np.bincount(run, weights=length)
+        d = np.column_stack([np.bincount(run, weights=d[:, 0]), np.bincount(run, weights=d[:, 1])])
+        phi = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
     # the whole loop's turning: the unwrapped turns plus the one at the closing vertex
     total = (phi[-1] - phi[0]) + ((phi[0] - phi[-1] + np.pi) % (2 * np.pi) - np.pi)
     perimeter = length.sum()
     # the angle at the segments' midpoints over five turns of the loop (-2 .. 3 perimeters),
     # so that pos +- 2h stays inside the table
-    mid = np.concatenate([[0.0], np.cumsum(length)[:-1]]) + length / 2
+    mid = s0 + np.concatenate([[0.0], np.cumsum(length)[:-1]]) + length / 2
     node_s = np.concatenate([mid + i * perimeter for i in range(-2, 3)])
     node_phi = np.concatenate([phi + i * total for i in range(-2, 3)])
     # its integral, exact for the piecewise-linear angle: trapezoids, then within a piece
