@@ -270,6 +270,43 @@ def test_commands_on_a_scan(tmp_path):
                      "minimise: [peak_pressure_to_pain_threshold]\n")
     res = run_phri("design", study, "-o", tmp_path / "des")
     assert_one_line_error(res, "vary.geometry.taper_deg", "geometry.scan", code=1)
+    # simulate with a figure, and live from standard input
+    res = run_phri("simulate", path, log, "-o", tmp_path / "f.csv", "--plot", tmp_path / "f.png")
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "f.png").stat().st_size > 0
+    from click.testing import CliRunner
+
+    from phri_cli.main import phri
+
+    res = CliRunner().invoke(phri, ["live", str(path), "--source", "-", "-o",
+                                    str(tmp_path / "live.csv")], input=log.read_text())
+    assert res.exit_code == 0, res.output
+    assert len(pd.read_csv(tmp_path / "live.csv")) == 5
+
+
+def test_coupled_arm_takes_a_users_fe_on_a_scan(tmp_path):
+    """With its own surface stiffness (independent springs of 2e4 N/m per patch direction)
+    the coupled arm runs on a scan: at zero load its normal forces are the hoop preload."""
+    cyl = _cylinder(tmp_path / "cyl.stl")
+    raw = scan_config(cyl, unit="m")
+    np.savez(tmp_path / "K.npz", K=np.eye(3 * 21) * 2e4,
+             labels=np.array([f"{r}{j}" for r in "ABC" for j in range(7)]))
+    raw["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": 3e4,
+                                  "surface_stiffness": "K.npz"}
+    path = write_yaml(tmp_path, raw)
+    assert run_phri("stiffness", path, "--arm", "coupled").exit_code == 0
+    cfg = load(raw, tmp_path)
+    sol = solve(model_from_config(cfg, "coupled"), np.zeros((1, 6)))
+    # the hoop preload T psi_e w_r / sum w_r with psi_e the 35-degree span
+    np.testing.assert_allclose(sol.forces[0], 15.0 * math.radians(35.0) / 3, rtol=1e-4)
+
+
+def test_handles_strap_outside_the_scan_is_refused(tmp_path):
+    cyl = _cylinder(tmp_path / "cyl.stl")
+    raw = scan_config(cyl, unit="m", strap={"model": "handles", "axial_position": 0.2})
+    res = run_phri("stiffness", write_yaml(tmp_path, raw))
+    assert_one_line_error(res, "cyl.stl", "strap.axial_position", "does not cut the scan",
+                          code=1)
 
 
 # --------------------------------------------------------------------------- the example
