@@ -24,8 +24,8 @@ from ..errors import ConfigError
 from .schema_errors import config_error_from
 # the wrench-log columns of docs/model.md section 7, importable from here too
 from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
-from .config_geometry import check_scan_alone, geometry_sections, per_row_values, scan_geometry
-from .scan import scan_cuff
+from .config_geometry import (check_scan_alone, geometry_sections, per_row_values, read_scan,
+                              scan_geometry)
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
                           MAX_YAML_VALUES, load_yaml)
@@ -416,13 +416,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
 
     scan = None
     if g.scan is not None:
-        width_deg = width
-        theta = np.radians(g.angles.start + g.angles.step * np.arange(n_ang))
-        strap_x = None
-        if st.model == "handles":
-            strap_x = float(np.mean(row_x)) if st.axial_position is None else st.axial_position
-        scan = scan_cuff(g.scan, row_x, row_width, theta, np.full(n_ang, np.radians(width_deg)),
-                         base, strap_x=strap_x, config_path=path, row_names=row_labels)
+        scan = read_scan(g, st, row_x, row_width, width, base, path, row_labels)
         radius = scan.radius
 
     law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
@@ -441,7 +435,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         radius=radius, row_width=row_width, angle_start_deg=float(g.angles.start),
         angle_step_deg=float(g.angles.step), angle_count=int(n_ang),
         angle_width_deg=None if g.angles.width is None else float(g.angles.width),
-        labels=labels, sections=sections, taper_deg=taper, scan=scan, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
+        labels=labels, sections=sections, taper_deg=taper, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
+        scan=scan,
         indenter_diameter=float(root.tissue.indenter_diameter),
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
         loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),

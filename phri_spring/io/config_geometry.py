@@ -10,7 +10,8 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["geometry_sections", "per_row_values", "check_scan_alone", "scan_geometry"]
+__all__ = ["geometry_sections", "per_row_values", "check_scan_alone", "read_scan",
+           "scan_geometry"]
 
 
 def per_row_values(value, n_rows, path, key) -> np.ndarray:
@@ -36,6 +37,22 @@ def check_scan_alone(g, path) -> None:
                               f"{'taper' if key == 'taper_deg' else 'shape and size'}; remove "
                               f"geometry.{key} (or geometry.scan)", file=path,
                               key=f"geometry.{key}")
+
+
+def read_scan(g, strap, row_x, row_width, width_deg: float, base, path, row_labels):
+    """``geometry.scan`` read and the elements placed on it (:class:`~.scan.ScanCuff`), with
+    the strap's section for the ``handles`` model at its axial position (default the rows'
+    mean x, as the model puts it). One-line errors naming the file or the key."""
+    from .scan import scan_cuff
+
+    theta = np.radians(g.angles.start + g.angles.step * np.arange(g.angles.count))
+    strap_x = None
+    if strap.model == "handles":
+        strap_x = float(np.mean(row_x)) if strap.axial_position is None \
+            else float(strap.axial_position)
+    return scan_cuff(g.scan, row_x, row_width, theta,
+                     np.full(g.angles.count, math.radians(width_deg)), base, strap_x=strap_x,
+                     config_path=path, row_names=row_labels)
 
 
 def scan_geometry(cfg):
