@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings, strategies as st
 
 import reference_model as ref
 import reference_sections as rs
@@ -341,3 +342,31 @@ def test_the_example_config_simulates_the_example_log(tmp_path):
     assert np.all(np.abs(np.degrees(np.arcsin(geom.normals[:, 0]))) > 2.0)
     with pytest.raises(ConfigError):
         config_from_dict(cfg.raw, path=cfg_path, base_dir=tmp_path)   # file not found there
+
+
+# --------------------------------------------------------------------------- the outline
+@settings(max_examples=40, deadline=None)
+@given(n=st.integers(12, 60), bumps=st.floats(0.0, 0.15), seed=st.integers(0, 2 ** 31),
+       h=st.floats(0.002, 0.01))
+def test_collinear_points_do_not_change_the_tangent(n, bumps, seed, h):
+    """A plane's cut through facet diagonals adds points on straight outline pieces: the
+    smoothed tangent angle (and so every turning) is that of the outline without them."""
+    from phri_spring.physics.scan_sections import tangent_angle
+
+    rng = np.random.default_rng(seed)
+    t = np.sort(rng.uniform(0, 2 * np.pi, n))
+    r = 0.045 * (1 + bumps * np.cos(3 * t + rng.uniform(0, 6)))
+    yz = np.column_stack([r * np.cos(t), r * np.sin(t)])
+    # one extra point on every other segment, at a random fraction along it
+    nxt = np.roll(yz, -1, axis=0)
+    frac = rng.uniform(0.1, 0.9, n)
+    rows = []
+    for k in range(n):
+        rows.append(yz[k])
+        if k % 2:
+            rows.append(yz[k] + frac[k] * (nxt[k] - yz[k]))
+    dense = np.array(rows)
+    perimeter = np.linalg.norm(nxt - yz, axis=1).sum()
+    pos = rng.uniform(0, perimeter, 9)
+    np.testing.assert_allclose(tangent_angle(dense, pos, h), tangent_angle(yz, pos, h),
+                               rtol=0, atol=1e-9)
