@@ -271,6 +271,11 @@ def test_commands_on_a_scan(tmp_path):
                      "minimise: [peak_pressure_to_pain_threshold]\n")
     res = run_phri("design", study, "-o", tmp_path / "des")
     assert_one_line_error(res, "vary.geometry.taper_deg", "geometry.scan", code=1)
+    # a design whose row misses the scan: one line naming the study, the design and the scan
+    study.write_text(study.read_text().replace("geometry.taper_deg: {values: [0, 2]}",
+                                               "geometry.rows.A: {values: [-0.025, -0.2]}"))
+    res = run_phri("design", study, "-o", tmp_path / "des")
+    assert_one_line_error(res, "study.yaml", "design 1", "cyl.stl", "row A", code=1)
     # simulate with a figure, and live from standard input
     res = run_phri("simulate", path, log, "-o", tmp_path / "f.csv", "--plot", tmp_path / "f.png")
     assert res.exit_code == 0, res.output

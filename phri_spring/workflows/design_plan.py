@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, DataError
 from ..io.config import Config, config_from_dict
 from ..io.study import Study
 from .common import ARM_MODELS, model_from_config
@@ -119,11 +119,13 @@ def build_designs(study: Study, base: Config) -> tuple:
         try:
             cfg = config_from_dict(raw, path=base.path, base_dir=cfg_dir)
             model_from_config(cfg, study.arm)
-        except ConfigError as exc:
+        except DataError as exc:    # a ConfigError, or a scan the design's rows miss
             what = ", ".join(f"{p.path}={'x' if p.kind == 'scale' else ''}{v:g}"
                              for p, v in zip(study.parameters, row))
-            raise type(exc)(f"design {i} ({what}) is not a valid config: {exc.message}",
-                            file=study.path, key=exc.key) from None
+            own = isinstance(exc, ConfigError)
+            raise type(exc)(f"design {i} ({what}) is not a valid config: "
+                            f"{exc.message if own else exc}", file=study.path,
+                            key=exc.key if own else None) from None
         configs.append(cfg)
     return values, configs
 
