@@ -24,7 +24,8 @@ from ..errors import ConfigError
 from .schema_errors import config_error_from
 # the wrench-log columns of docs/model.md section 7, importable from here too
 from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
-from .config_geometry import geometry_sections, per_row_values
+from .config_geometry import (check_scan_alone, geometry_sections, per_row_values, read_scan,
+                              scan_geometry)
 from .config_values import check_plausible
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
@@ -65,6 +66,9 @@ class _Geometry(_Strict):
     section: Optional[Union[str, dict]] = None
     #: taper half-angle, positive when the limb narrows distally (docs/model.md section 13)
     taper_deg: float = Field(default=0.0, json_schema_extra=_unit("deg"))
+    #: a 3D surface scan of the limb (docs/scans.md): {file, unit, origin, axis, y_axis,
+    #: max_triangles, smoothing}; checked by io.scan, exclusive of radius, section and taper
+    scan: Optional[Any] = None
 
     @field_validator("rows")
     @classmethod
@@ -240,6 +244,8 @@ class Config:
     sections: Optional[tuple] = field(default=None, kw_only=True)
     #: taper half-angle alpha [deg] (geometry.taper_deg)
     taper_deg: float = field(default=0.0, kw_only=True)
+    #: geometry.scan, read (io.scan.ScanCuff): the elements' geometry on the scan; None without
+    scan: Optional[Any] = field(default=None, kw_only=True, repr=False)
     tissue_stiffness: np.ndarray           # (n,), as configured, in tissue_basis
     tissue_basis: str
     indenter_diameter: float
@@ -286,6 +292,8 @@ class Config:
         """The element geometry (:class:`~phri_spring.physics.geometry.CuffGeometry`) it describes."""
         from ..physics.geometry import cuff_geometry, section_geometry
 
+        if self.scan is not None:
+            return scan_geometry(self)
         if self.sections is None:
             return cuff_geometry(self.row_x, self.radius, self.row_width, self.angle_start_deg,
                                  self.angle_step_deg, self.angle_count, self.angle_width_deg,
@@ -298,8 +306,8 @@ class Config:
     @property
     def is_circular_cylinder(self) -> bool:
         """Whether the limb is the circular cylinder of docs/model.md section 1 (no
-        geometry.section other than circle, no taper)."""
-        return self.sections is None and self.taper_deg == 0
+        geometry.section other than circle, no taper, no scan)."""
+        return self.sections is None and self.taper_deg == 0 and self.scan is None
 
     @property
     def n_rows(self) -> int:
@@ -337,9 +345,13 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
     check_plausible(row_x, "geometry.rows", path)
     n_rows, n_ang = len(row_labels), g.angles.count
-    # the radius (and every section's distance from the axis) is checked against
-    # physics.sections.RHO_RANGE_M there
-    sections, radius, taper = geometry_sections(g, n_rows, path)
+    if g.scan is not None:
+        check_scan_alone(g, path)
+        sections, radius, taper = None, None, 0.0
+    else:
+        # the radius (and every section's distance from the axis) is checked against
+        # physics.sections.RHO_RANGE_M there
+        sections, radius, taper = geometry_sections(g, n_rows, path)
     row_width = per_row_values(g.row_width, n_rows, path, "geometry.row_width")
     check_plausible(row_width, "geometry.row_width", path)
     for k in ("start", "step"):
@@ -427,6 +439,11 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         if value is not None:
             check_plausible(value, key, path)
 
+    scan = None
+    if g.scan is not None:
+        scan = read_scan(g, st, row_x, row_width, width, base, path, row_labels)
+        radius = scan.radius
+
     law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
                                            labels, path, base)
     cont = root.tissue.continuum
@@ -453,6 +470,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         angle_step_deg=float(g.angles.step), angle_count=int(n_ang),
         angle_width_deg=None if g.angles.width is None else float(g.angles.width),
         labels=labels, sections=sections, taper_deg=taper, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
+        scan=scan,
         indenter_diameter=float(root.tissue.indenter_diameter),
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
         loadcell_position=pos, loadcell_rotation=R, loadcell_sign=convention_sign(lc.convention),
@@ -464,7 +482,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
         strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
         raw=original, stiffness_files=stiffness_files + ((surface,) if surface else ())
-        + tuple(_csv_path(v, base) for v in law_values.values() if isinstance(v, str)),
+        + tuple(_csv_path(v, base) for v in law_values.values() if isinstance(v, str))
+        + ((scan.file,) if scan is not None else ()),
         tissue_stiffness_csv=_csv_path(root.tissue.stiffness, base),
         continuum_thickness=None if cont is None else float(cont.thickness),
         continuum_young_modulus=None if cont is None or cont.young_modulus is None

@@ -10,7 +10,8 @@ import numpy as np
 
 from ..errors import ConfigError
 
-__all__ = ["geometry_sections", "per_row_values"]
+__all__ = ["geometry_sections", "per_row_values", "check_scan_alone", "read_scan",
+           "scan_geometry"]
 
 
 def per_row_values(value, n_rows, path, key) -> np.ndarray:
@@ -25,6 +26,50 @@ def per_row_values(value, n_rows, path, key) -> np.ndarray:
         raise ConfigError(f"expected positive finite values [m], got {arr.tolist()}", file=path,
                           key=key)
     return arr
+
+
+def check_scan_alone(g, path) -> None:
+    """With ``geometry.scan`` the scan gives the limb's shape and taper: a radius, a section
+    or a taper_deg given as well is a ConfigError naming that key (they would contradict it)."""
+    for key in ("radius", "section", "taper_deg"):
+        if key in g.model_fields_set:
+            raise ConfigError(f"not allowed with geometry.scan: the scan gives the limb's "
+                              f"{'taper' if key == 'taper_deg' else 'shape and size'}; remove "
+                              f"geometry.{key} (or geometry.scan)", file=path,
+                              key=f"geometry.{key}")
+
+
+def read_scan(g, strap, row_x, row_width, width_deg: float, base, path, row_labels):
+    """``geometry.scan`` read and the elements placed on it (:class:`~.scan.ScanCuff`), with
+    the strap's section for the ``handles`` model at its axial position (default the rows'
+    mean x, as the model puts it). One-line errors naming the file or the key."""
+    from .scan import scan_cuff
+
+    theta = np.radians(g.angles.start + g.angles.step * np.arange(g.angles.count))
+    strap_x = None
+    if strap.model == "handles":
+        strap_x = float(np.mean(row_x)) if strap.axial_position is None \
+            else float(strap.axial_position)
+    return scan_cuff(g.scan, row_x, row_width, theta,
+                     np.full(g.angles.count, math.radians(width_deg)), base, strap_x=strap_x,
+                     config_path=path, row_names=row_labels)
+
+
+def scan_geometry(cfg):
+    """The :class:`~phri_spring.physics.geometry.CuffGeometry` of a config with
+    ``geometry.scan`` (its :class:`~phri_spring.io.scan.ScanCuff` read when it was loaded)."""
+    from ..physics.geometry import CuffGeometry
+
+    el = cfg.scan.elements
+    n_rows, n_ang = len(cfg.row_labels), int(cfg.angle_count)
+    width = cfg.angle_step_deg if cfg.angle_width_deg is None else cfg.angle_width_deg
+    theta = np.radians(cfg.angle_start_deg + cfg.angle_step_deg * np.arange(n_ang))
+    return CuffGeometry.from_elements(
+        cfg.labels, cfg.row_labels, n_rows, n_ang, x=np.repeat(cfg.row_x, n_ang),
+        row_width=np.repeat(cfg.row_width, n_ang), theta=np.tile(theta, n_rows),
+        span=np.full(n_rows * n_ang, math.radians(width)), points=el.points,
+        normals=el.normals, areas=el.areas, turning=el.turning,
+        strap_section=cfg.scan.strap_section)
 
 
 def geometry_sections(g, n_rows: int, path):

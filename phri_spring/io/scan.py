@@ -24,10 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, ConfigTypeError, DataError, ModelInputError, UsageError
-from ..physics.scan_sections import ScanElements, scan_element_geometry
+from ..physics.scan_sections import (ScanElements, prepare_scan_mesh,
+                                     scan_element_geometry)
 
 __all__ = ["SCAN_KEY", "SCAN_KEYS", "UNITS", "MAX_TRIANGLES", "PLAUSIBLE_SIZE_M", "MESH_SUFFIXES",
-           "ScanFrame", "LoadedScan", "scan_frame", "read_mesh", "load_scan", "scan_elements"]
+           "ScanFrame", "LoadedScan", "ScanCuff", "scan_frame", "read_mesh", "load_scan",
+           "scan_elements", "scan_cuff"]
 
 SCAN_KEY = "geometry.scan"
 #: the keys of ``geometry.scan`` (``max_triangles`` and ``smoothing`` are optional)
@@ -317,3 +319,50 @@ def scan_elements(scan_config: dict, rows_x, row_widths, theta, span, config_dir
         if exc.quantity != "scan":
             raise
         raise DataError(f"{exc} ({SCAN_KEY} in the cuff frame)", file=scan.file) from None
+
+
+@dataclass(frozen=True, eq=False)
+class ScanCuff:
+    """What the config keeps of ``geometry.scan``: the elements' geometry, the strap's section
+    (``strap.model: handles``; None with the hoop), the scan file, and per row the radius of
+    the circle of the outline's perimeter [m] (the rows' ``radius`` where one is reported)."""
+
+    elements: ScanElements
+    strap_section: object
+    file: Path
+    radius: np.ndarray
+
+
+def scan_cuff(scan_config: dict, rows_x, row_widths, theta, span, config_dir=".", *,
+              strap_x=None, config_path=None, row_names=None) -> ScanCuff:
+    """:func:`scan_elements` and, with ``strap_x`` [m], the scan's section there for the
+    strap's handles (the scan cut by the plane at ``strap_x``), the scan read once.
+
+    Raises as :func:`scan_elements`; a strap plane that misses the scan or is not closed
+    around the axis is a :class:`DataError` naming the file and ``strap.axial_position``.
+    """
+    from ..physics.scan_strap import scan_strap_section
+
+    _, smoothing = _scan_config(scan_config, config_path)
+    scan = load_scan(scan_config, config_dir, config_path=config_path)
+    try:
+        mesh = prepare_scan_mesh(scan.vertices, scan.faces)
+        elements = scan_element_geometry(mesh, None, rows_x, row_widths, theta, span,
+                                         smoothing=smoothing, row_names=row_names)
+    except ModelInputError as exc:
+        if exc.quantity != "scan":
+            raise
+        raise DataError(f"{exc} ({SCAN_KEY} in the cuff frame)", file=scan.file) from None
+    strap = None
+    if strap_x is not None:
+        try:
+            strap = scan_strap_section(mesh, float(strap_x), smoothing,
+                                       name="the strap (strap.axial_position)")
+        except ModelInputError as exc:
+            if exc.quantity != "scan":
+                raise
+            raise DataError(f"{exc} ({SCAN_KEY} in the cuff frame)", file=scan.file,
+                            key="strap.axial_position") from None
+    perimeter = [float(np.linalg.norm(np.roll(yz, -1, axis=0) - yz, axis=1).sum())
+                 for yz in elements.outlines]
+    return ScanCuff(elements, strap, scan.file, np.array(perimeter) / (2 * np.pi))

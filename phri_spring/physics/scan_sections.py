@@ -52,7 +52,8 @@ from scipy.sparse.csgraph import connected_components
 from ..errors import ModelInputError
 
 __all__ = ["ScanElements", "ScanMesh", "SectionLoop", "prepare_scan_mesh", "section_loops",
-           "axis_loop", "scan_element_geometry", "clipped_area", "DEFAULT_SMOOTHING"]
+           "axis_loop", "scan_element_geometry", "clipped_area", "DEFAULT_SMOOTHING", "ray_hits",
+           "tangent_angle"]
 
 #: the least smoothing length h [m]: the half-length of the arc the outline's tangent angle
 #: is averaged over, and the radius the surface normal is averaged over (then 2h for both):
@@ -63,6 +64,10 @@ DEFAULT_SMOOTHING = 0.004
 #: distance from a section's plane, as a fraction of the scan's size, within which a vertex
 #: counts as on the plane (well above float32 rounding, far below any scanner's resolution)
 _ON_PLANE = 1e-6
+#: [rad] consecutive outline segments turning less than this are one straight piece (a planar
+#: facet cut on its diagonal, with float32 coordinates, turns by about 1e-7 rad; a limb's
+#: facets turn by 1e-2 rad)
+_COLLINEAR = 1e-5
 
 
 @dataclass(frozen=True, eq=False)
@@ -350,7 +355,7 @@ def _wedge_planes(lo: float, hi: float):
     return [((0.0, -np.sin(lo), np.cos(lo)), 0.0), ((0.0, np.sin(hi), -np.cos(hi)), 0.0)]
 
 
-def _ray_hits(yz: np.ndarray, angles: np.ndarray):
+def ray_hits(yz: np.ndarray, angles: np.ndarray):
     """Farthest crossing of each ray (from the origin at ``angles``) with the closed polyline
     ``yz``: segment index (k,) and fraction along it; -1 where a ray misses."""
     p, d = yz, np.roll(yz, -1, axis=0) - yz
@@ -381,12 +386,27 @@ def _mean_tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray
     keep = length > 0
     d, length = d[keep], length[keep]
     phi = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+    # a plane cuts a triangulated surface on its facets' edges and on their diagonals: the
+    # cut of one planar quad is two collinear pieces of unequal length, whose midpoints
+    # would bend the piecewise-linear angle off a straight facet. Collinear runs are one
+    # segment (a turn below _COLLINEAR is float rounding of a planar facet, not shape).
+    turn = (np.roll(phi, -1) - phi + np.pi) % (2 * np.pi) - np.pi
+    corner = np.abs(turn) > _COLLINEAR           # a real corner after segment k
+    s0 = 0.0                                     # arc position where segment 0 starts
+    if corner.any() and not corner.all():
+        i0 = (int(np.flatnonzero(corner)[-1]) + 1) % len(phi)   # a segment that begins a run
+        s0 = float(length[:i0].sum())
+        d, length, corner = np.roll(d, -i0, axis=0), np.roll(length, -i0), np.roll(corner, -i0)
+        run = np.concatenate([[0], np.cumsum(corner[:-1])])
+        length = np.bincount(run, weights=length)
+        d = np.column_stack([np.bincount(run, weights=d[:, 0]), np.bincount(run, weights=d[:, 1])])
+        phi = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
     # the whole loop's turning: the unwrapped turns plus the one at the closing vertex
     total = (phi[-1] - phi[0]) + ((phi[0] - phi[-1] + np.pi) % (2 * np.pi) - np.pi)
     perimeter = length.sum()
     # the angle at the segments' midpoints over five turns of the loop (-2 .. 3 perimeters),
     # so that pos +- 2h stays inside the table
-    mid = np.concatenate([[0.0], np.cumsum(length)[:-1]]) + length / 2
+    mid = s0 + np.concatenate([[0.0], np.cumsum(length)[:-1]]) + length / 2
     node_s = np.concatenate([mid + i * perimeter for i in range(-2, 3)])
     node_phi = np.concatenate([phi + i * total for i in range(-2, 3)])
     # its integral, exact for the piecewise-linear angle: trapezoids, then within a piece
@@ -425,7 +445,7 @@ def _patch_normals(mesh: ScanMesh, comp: int, points: np.ndarray, h: float,
     return out
 
 
-def _tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
+def tangent_angle(yz: np.ndarray, pos: np.ndarray, h: float) -> np.ndarray:
     """The outline's tangent angle at arc positions ``pos``, smoothed over +-h.
 
     A window average misses the true angle by h^2/6 times the rate of change of curvature (an
@@ -494,7 +514,7 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
         cum = np.concatenate([[0.0], np.cumsum(seg)])
         # ray crossings: centre rays (points, normals) and edge rays (arcs, turning)
         angles = np.concatenate([th, lo_ray, hi_ray])
-        k, s = _ray_hits(yz, angles)
+        k, s = ray_hits(yz, angles)
         if np.any(k < 0):
             raise ModelInputError(f"a ray from the axis misses the outline of {names[r]} at x = "
                                   f"{x:.4g} m; expected the axis inside the limb", "scan")
@@ -513,7 +533,7 @@ def scan_element_geometry(vertices, faces, rows_x, row_widths, theta, span, *,
         else:
             h = float(smoothing)
         used_h[r] = h
-        turning[sl] = _tangent_angle(yz, pos_hi, h) - _tangent_angle(yz, pos_lo, h)
+        turning[sl] = tangent_angle(yz, pos_hi, h) - tangent_angle(yz, pos_lo, h)
         comp = mesh.face_component[loop.face[0]]
         normals[sl] = _patch_normals(mesh, comp, points[sl], h, loop.face[k[:J]])
         # areas: the surface connected to this outline, clipped to each element's band

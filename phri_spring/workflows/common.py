@@ -204,8 +204,12 @@ def _check_coupled_shape(cfg: Config) -> None:
     it; the user's own FE export (tissue.continuum.surface_stiffness) may be of any shape."""
     if cfg.is_circular_cylinder:
         return
-    key = "geometry.section" if cfg.sections is not None else "geometry.taper_deg"
-    what = "a non-circular section" if cfg.sections is not None else "a taper"
+    if cfg.scan is not None:
+        key, what = "geometry.scan", "a scanned limb"
+    elif cfg.sections is not None:
+        key, what = "geometry.section", "a non-circular section"
+    else:
+        key, what = "geometry.taper_deg", "a taper"
     if cfg.continuum_law in ("neo_hookean", "ogden"):
         raise ConfigError(f"the coupled arm's {cfg.continuum_law} law is identified on the "
                           f"built-in FE, which meshes a circular cylindrical layer: {what} is "

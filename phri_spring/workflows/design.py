@@ -222,8 +222,8 @@ def _assemble(study, base, values, configs, loads, done, outdir) -> StudyResult:
 
 # --------------------------------------------------------------------------- outputs
 def _portable_config(cfg_raw: dict, base: Optional[Path], outdir: Path) -> dict:
-    """The config mapping with stiffness-file paths (and a ``tissue.stiffening`` CSV) made
-    relative to ``outdir``."""
+    """The config mapping with stiffness-file paths (and a ``tissue.stiffening`` CSV, and
+    ``geometry.scan.file``) made relative to ``outdir``."""
     raw = copy.deepcopy(cfg_raw)
     base_dir = base.parent if base is not None else Path(".")
     for sec, key in (("tissue", "stiffness"), ("cuff", "stiffness"), ("tissue", "stiffening")):
@@ -234,6 +234,13 @@ def _portable_config(cfg_raw: dict, base: Optional[Path], outdir: Path) -> dict:
                 raw[sec][key] = os.path.relpath(src.resolve(), outdir.resolve())
             except ValueError:  # another drive (Windows)
                 raw[sec][key] = str(src.resolve())
+    scan = raw.get("geometry", {}).get("scan") if isinstance(raw.get("geometry"), dict) else None
+    if isinstance(scan, dict) and isinstance(scan.get("file"), str):
+        src = Path(scan["file"]) if Path(scan["file"]).is_absolute() else base_dir / scan["file"]
+        try:
+            scan["file"] = os.path.relpath(src.resolve(), outdir.resolve())
+        except ValueError:  # another drive (Windows)
+            scan["file"] = str(src.resolve())
     return raw
 
 

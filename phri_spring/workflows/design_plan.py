@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from ..errors import ConfigError, DataError
 from ..io.config import Config, config_from_dict
 from ..io.study import Study
 from .common import ARM_MODELS, model_from_config
@@ -101,6 +101,13 @@ def build_designs(study: Study, base: Config) -> tuple:
         raise ConfigError(f"unknown arm model {study.arm!r}{hint} (expected one of "
                           f"{', '.join(ARM_MODELS)})", file=study.path, key="arm")
     for p in study.parameters:
+        if base.scan is not None and p.path.split("[")[0].split(".")[:2] in (
+                ["geometry", "radius"], ["geometry", "section"], ["geometry", "taper_deg"],
+                ["geometry", "scan"]):
+            raise ConfigError("the config's limb is a scan (geometry.scan): its shape, size and "
+                              "taper come from the scan's surface, so a study cannot vary "
+                              f"{p.path}; vary the rows, widths, angles or the cuff instead",
+                              file=study.path, key=f"vary.{p.path}")
         check_parameter(base.raw, p, study.path)
     values = design_values(study)
     if len(values) == 0:
@@ -112,11 +119,13 @@ def build_designs(study: Study, base: Config) -> tuple:
         try:
             cfg = config_from_dict(raw, path=base.path, base_dir=cfg_dir)
             model_from_config(cfg, study.arm)
-        except ConfigError as exc:
+        except DataError as exc:    # a ConfigError, or a scan the design's rows miss
             what = ", ".join(f"{p.path}={'x' if p.kind == 'scale' else ''}{v:g}"
                              for p, v in zip(study.parameters, row))
-            raise type(exc)(f"design {i} ({what}) is not a valid config: {exc.message}",
-                            file=study.path, key=exc.key) from None
+            own = isinstance(exc, ConfigError)
+            raise type(exc)(f"design {i} ({what}) is not a valid config: "
+                            f"{exc.message if own else exc}", file=study.path,
+                            key=exc.key if own else None) from None
         configs.append(cfg)
     return values, configs
 
