@@ -43,6 +43,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from .friction_events import solve_event_coupled, solve_event_elements
+from .friction_normal import block_nonlinear
 # the shared pieces, importable from here too
 from .friction_form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
                             PathState, _scales, initial_state, interface_form)
@@ -171,12 +172,18 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     while i < m:
         guess = None
         if not (state.cls == SLIDING).any() and (state.cls == STUCK).any():
-            maps = _stuck_maps(form, cache, state.cls)
+            maps = (True if form.normal_response is not None
+                    else _stuck_maps(form, cache, state.cls))
             if maps:
                 # the state usually holds for long stretches between events: grow the
                 # block while it does, start small again after an event
                 e = min(m, i + width)
-                ub, Pb, k, guess = _block(form, maps, state, r[i:e], f_tol[i:e], x_tol[i:e])
+                if form.normal_response is None:
+                    ub, Pb, k, guess = _block(form, maps, state, r[i:e], f_tol[i:e],
+                                              x_tol[i:e])
+                else:   # a nonlinear tissue law: Newton per row, the state fixed
+                    ub, Pb, k, guess = block_nonlinear(form, state, r[i:e], f_tol[i:e],
+                                                       x_tol[i:e])
                 width = min(_BLOCK, 2 * width) if k == e - i else _FIRST_BLOCK
                 if k:
                     u[i:i + k], P[i:i + k] = ub, Pb
