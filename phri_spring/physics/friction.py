@@ -193,6 +193,10 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     i += k
                     if i >= m:
                         break
+                    if k == e - i + k and form.normal_response is not None:
+                        # the whole block kept the state: the next one may too (a nonlinear
+                        # block costs a Newton iteration, an event several)
+                        continue
         event = solve_event_elements if form.diagonal else solve_event_coupled
         ui, Pi, new, its, ok = event(form, r[i], state, guess)
         if not ok:

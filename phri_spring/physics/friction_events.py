@@ -76,7 +76,8 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     kn, kt, dn = el.kn, el.kt, el.dn
     normal = form.normal_response
     # the tissue's share of every element, carried between evaluations as the next guess
-    share = [None if normal is None else normal.share_from_force(state.P[0::3])]
+    share = [None if normal is None else
+             normal.memo_from_force(state.P[0::3], el.Tn @ state.u + dn)]
     # where each element's tie starts: stuck or sliding ones from their slip, released
     # ones land where they were at the last sample (their skin does not move)
     z0 = state.z[:, 1:3].copy()

@@ -35,6 +35,8 @@ _SPLIT_STEPS = 8
 _SPLIT_RTOL = 1e-9
 #: Newton steps of a block's rows before the rows left are handed to the event solver
 _BLOCK_STEPS = 25
+#: rows up to this many are solved by LAPACK's 6x6 solves, more by the vectorised Cholesky
+_SMALL_BATCH = 64
 #: a block row is solved when its equilibrium residual is below this share of its forces
 BLOCK_RTOL = 1e-12
 
@@ -60,10 +62,17 @@ class NormalResponse:
         f = np.maximum(np.asarray(f, dtype=float), 0.0)
         return np.where(f > 0, self.law.compression_at(f), 0.0)
 
-    def evaluate(self, g, dt=None):
-        """(f, k, d_t) at total compressions g (..., n) [m]: the force [N] (0 where g <= 0),
-        the series tangent [N/m] (0 where g <= 0) and the tissue's share [m]. ``dt`` is a
-        guess of the share (e.g. the last call's), clipped to [0, g]."""
+    def memo_from_force(self, f, g):
+        """A start for :meth:`evaluate` near compressions g [m] where the elements carry f [N]."""
+        dt = self.share_from_force(f)
+        _, Ft = self.law.force_tangent(dt)
+        return g, dt, 1.0 / (1.0 + Ft * self.c)
+
+    def evaluate(self, g, memo=None):
+        """(f, k, memo) at total compressions g (..., n) [m]: the force [N] (0 where g <= 0),
+        the series tangent [N/m] (0 where g <= 0) and what the next call starts from
+        (compressions, tissue shares and d d_t / d g there). ``memo`` is a previous call's
+        (of the same shape), or None."""
         g = np.asarray(g, dtype=float)
         gp = np.maximum(g, 0.0)
         law, c = self.law, self.c
@@ -72,31 +81,42 @@ class NormalResponse:
                 dt = gp
                 F, Ft = law.force_tangent(dt)
             else:
-                dt = gp / (1.0 + law.k0 * c) if dt is None else np.clip(dt, 0.0, gp)
-                # h(d_t) = d_t + F(d_t) c - g increases with d_t: Newton on it from the
-                # guess, kept in [0, g]. It converges quadratically, so once a step is below
-                # _SPLIT_RTOL of the compression the error left is far below round-off.
+                if memo is None:
+                    dt = gp / (1.0 + law.k0 * c)
+                else:   # the last share moved along the split's tangent
+                    g0, dt0, s0 = memo
+                    dt = dt0 + (gp - np.maximum(g0, 0.0)) * s0
+                    np.maximum(dt, 0.0, out=dt)
+                    np.minimum(dt, gp, out=dt)
+                # h(d_t) = d_t + F(d_t) c - g increases with d_t: Newton on it, kept in
+                # [0, g]. It converges quadratically, so once a step is below _SPLIT_RTOL
+                # of the compression the error left is far below round-off, and the force
+                # moves by its tangent times that step
                 small = _SPLIT_RTOL * gp.max()
                 F, Ft = law.force_tangent(dt)
                 for _ in range(_SPLIT_STEPS):
                     step = dt + F * c
                     step -= gp
                     step /= 1.0 + Ft * c
-                    dt = dt - step
-                    np.maximum(dt, 0.0, out=dt)
-                    np.minimum(dt, gp, out=dt)
-                    F, Ft = law.force_tangent(dt)
+                    new = dt - step
+                    np.maximum(new, 0.0, out=new)
+                    np.minimum(new, gp, out=new)
                     if not np.abs(step).max() > small:
+                        F = F + Ft * (new - dt)
+                        dt = new
                         break
+                    dt = new
+                    F, Ft = law.force_tangent(dt)
                 else:
                     dt = law.series_share(gp, c)
                     F, Ft = law.force_tangent(dt)
-            k = Ft / (1.0 + Ft * c)
+            den = 1.0 + Ft * c
+            k = Ft / den
         off = g <= 0
         if off.any():
             F = np.where(off, 0.0, F)
             k = np.where(off, 0.0, k)
-        return F, k, dt
+        return F, k, (g, dt, 1.0 / den)
 
 
 def block_nonlinear(form, state, r, f_tol, x_tol):
@@ -118,52 +138,58 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     Kt = (kt_s @ el.TT).reshape(6, 6)
     z = state.z[:, 1:3]
     ct = el.TtT @ (kt_s[:, None] * z).ravel()
-    Tn, dn = el.Tn, el.dn
-    NN = el.NN
+    Tn, TnT, dn, NN = el.Tn, el.TnT, el.dn, el.NN
 
-    def internal(u, dt):
-        g = u @ Tn.T + dn
-        f, k, dt = normal.evaluate(g, dt)
-        f = f * stuck
-        k = k * stuck
-        return u @ Kt.T - ct + f @ Tn, k, dt, g, f
+    def internal(u, memo):
+        g = u @ TnT
+        g += dn
+        f, k, memo = normal.evaluate(g, memo)
+        f *= stuck
+        k *= stuck
+        out = u @ Kt.T
+        out += f @ Tn
+        out -= ct
+        return out, k, memo, g, f
 
-    dt_state = normal.share_from_force(state.P[0::3])
-    F0, k0, _, _, _ = internal(state.u[None], dt_state[None])
-    K0 = Kt + (k0[0] @ NN).reshape(6, 6)
+    g_state = Tn @ state.u + dn
+    F0, k0, memo0, _, _ = internal(state.u, normal.memo_from_force(state.P[0::3], g_state))
+    K0 = Kt + (k0 @ NN).reshape(6, 6)
     try:
         u = state.u + np.linalg.solve(K0, (r - F0).T).T
     except np.linalg.LinAlgError:
         return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, state.u
-    dt = np.broadcast_to(dt_state, (m, n)).copy()
+    memo = tuple(np.broadcast_to(a, (m, n)) for a in memo0)
     scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + 1e-300
     tol = BLOCK_RTOL * scale
     done = np.zeros(m, dtype=bool)
     act = np.arange(m)
-    ua, dta = u, dt
+    g = np.empty((m, n))
+    f = np.empty((m, n))
+    ua = u
     with np.errstate(over="ignore", invalid="ignore"):
         for _ in range(_BLOCK_STEPS + 1):
-            Fi, k, dta, _, _ = internal(ua, dta)
+            Fi, k, memo, ga, fa = internal(ua, memo)
             R = Fi - r[act]
             ok = np.abs(R).max(axis=1) <= tol[act]
-            ok &= np.isfinite(R).all(axis=1)
-            u[act], dt[act] = ua, dta
+            u[act], g[act], f[act] = ua, ga, fa
             done[act[ok]] = True
             keep = ~ok
             if not keep.any():
                 break
-            act, ua, dta, R, k = act[keep], ua[keep], dta[keep], R[keep], k[keep]
-            H = Kt.ravel()[:, None] + (k @ NN).T                       # (36, rows)
-            ua = ua - spd_solve_batched(H, R)
-            # a row that left the finite numbers stays unsolved
-            ua = np.where(np.isfinite(ua), ua, np.nan)
-    # the state's checks on the solved rows
-    g = u @ Tn.T + dn
-    f, _, _ = normal.evaluate(g, dt)
-    f *= stuck
+            act, ua, R, k = act[keep], ua[keep], R[keep], k[keep]
+            memo = tuple(a[keep] for a in memo)
+            H = (k @ NN).reshape(-1, 6, 6) + Kt
+            if len(act) <= _SMALL_BATCH:
+                try:
+                    ua = ua - np.linalg.solve(H, R[:, :, None])[:, :, 0]
+                except np.linalg.LinAlgError:
+                    ua = ua - spd_solve_batched(H.reshape(-1, 36).T, R)
+            else:
+                ua = ua - spd_solve_batched(H.reshape(-1, 36).T, R)
+    # the state's checks on the solved rows (a row left unsolved, or not finite, fails)
     Pt = (u @ el.TtT).reshape(m, n, 2) - z
     Pt *= kt_s[:, None]
-    good = done.copy()
+    good = done
     if stuck.any():
         good &= np.all(g[:, stuck] >= -x_tol[:, None], axis=1)
         if mu < np.inf:
