@@ -43,7 +43,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from .friction_events import solve_event_coupled, solve_event_elements
-from .friction_normal import block_nonlinear
+from .friction_normal import block_nonlinear, frictionless_unheld
 # the shared pieces, importable from here too
 from .friction_form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
                             PathState, _scales, initial_state, interface_form)
@@ -169,6 +169,12 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     r_state = form.T.T @ state.P
     i = 0
     width = _FIRST_BLOCK
+    unheld = None
+    if form.diagonal and form.mu == 0:
+        key = ("frictionless_unheld", id(form))
+        unheld = cache.get(key)
+        if unheld is None:
+            unheld = cache[key] = frictionless_unheld(form)
     while i < m:
         guess = None
         if not (state.cls == SLIDING).any() and (state.cls == STUCK).any():
@@ -198,12 +204,19 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                         # block costs a Newton iteration, an event several)
                         continue
         event = solve_event_elements if form.diagonal else solve_event_coupled
-        ui, Pi, new, its, ok = event(form, r[i], state, guess)
-        if not ok:
+        if unheld is not None and np.abs(unheld @ r[i]).max() > f_tol[i]:
+            # frictionless elements push only along their normals: a wrench outside their
+            # span (an axial force, a torsion) has no equilibrium, whatever the state
+            ui, Pi, new, its, ok = state.u, state.P, state, 0, False
+        else:
+            ui, Pi, new, its, ok = event(form, r[i], state, guess)
+        if not ok and its:
             # the semismooth Newton can cycle between two sets where a patch sits on the
             # edge of its cone or of contact: the wrench since the last consistent state is
             # then applied in 2, 4, ... equal increments (a finer path), each from the last
-            ui, Pi, new, more, ok = _substeps(event, form, r_state, r[i], state, 1)
+            # (the spring model's elements are independent: one halving, into 2)
+            ui, Pi, new, more, ok = _substeps(event, form, r_state, r[i], state,
+                                              _MAX_HALVINGS if form.diagonal else 1)
             its += more
         solves[i] = its
         if ok:

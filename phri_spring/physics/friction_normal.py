@@ -26,7 +26,7 @@ import numpy as np
 from .friction_form import STUCK, RELEASED
 from .spd6 import spd_solve_batched
 
-__all__ = ["NormalResponse", "block_nonlinear", "BLOCK_RTOL"]
+__all__ = ["NormalResponse", "block_nonlinear", "frictionless_unheld", "BLOCK_RTOL"]
 
 #: Newton steps on an element's split (tissue share) per evaluation before the law's own
 #: safeguarded inversion takes over
@@ -206,3 +206,11 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     if k < m:
         u_next = u[k] if np.all(np.isfinite(u[k])) else state.u
     return u[:k], P.reshape(k, 3 * n), k, u_next
+
+
+def frictionless_unheld(form) -> np.ndarray:
+    """The projector (6, 6) onto the wrenches the spring model's normal forces cannot carry
+    at all (the complement of their span: for a cuff around the arm, the axial force and
+    the torsion about the axis). With mu = 0 a wrench with a part there has no equilibrium."""
+    Tn = form.elements.Tn
+    return np.eye(6) - np.linalg.pinv(Tn) @ Tn
