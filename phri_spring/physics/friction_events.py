@@ -85,6 +85,8 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     if rel.any():
         z0[rel] = (el.Tt @ state.u).reshape(n, 2)[rel]
     force_scale = np.abs(r).max() + np.abs(form.W_pre).max() + 1e-300
+    if normal is not None:
+        force_scale += normal.preload_scale(dn)
     tol = 1e-13 * force_scale
 
     def forces(u):

@@ -57,6 +57,14 @@ class NormalResponse:
             self.c = np.broadcast_to(1.0 / k_cuff, (self.law.n,)).copy()   # 0: rigid cuff
         self.rigid_cuff = bool(np.all(self.c == 0.0))
 
+    def preload_scale(self, dn) -> float:
+        """The largest element force [N] at the preload compressions dn (n,) [m]: the force
+        scale of the equilibrium's round-off when the preload's forces cancel on the cuff
+        (a hoop around the arm). Made once."""
+        if getattr(self, "_preload_scale", None) is None:
+            self._preload_scale = float(np.abs(self.evaluate(dn)[0]).max(initial=0.0))
+        return self._preload_scale
+
     def share_from_force(self, f) -> np.ndarray:
         """The tissue's share d_t [m] that carries normal forces f [N] (0 where f <= 0)."""
         f = np.maximum(np.asarray(f, dtype=float), 0.0)
@@ -159,7 +167,7 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     except np.linalg.LinAlgError:
         return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, state.u
     memo = tuple(np.broadcast_to(a, (m, n)) for a in memo0)
-    scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + 1e-300
+    scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + normal.preload_scale(dn)
     tol = BLOCK_RTOL * scale
     done = np.zeros(m, dtype=bool)
     act = np.arange(m)
