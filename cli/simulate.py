@@ -166,7 +166,7 @@ def _law_clause(config, arm) -> str:
 
 def no_answer_text(summary) -> str:
     """The warning of a run with friction where some samples have no answer: their share,
-    by reason, and the worst (docs/model.md section 12.6)."""
+    by reason, and the worst (docs/model.md section 12.7)."""
     share = 100.0 * summary.not_converged / max(summary.samples, 1)
     reasons = ", ".join(f"{count:,} {reason}" for reason, count in
                         sorted(summary.no_answer_reasons.items(), key=lambda kv: -kv[1]))

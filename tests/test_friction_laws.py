@@ -1,4 +1,4 @@
-"""Coulomb friction on the spring arms with a nonlinear tissue law (docs/model.md 12.5).
+"""Coulomb friction on the spring arms with a nonlinear tissue law (docs/model.md 12.6).
 
 References are independent of the solver:
 

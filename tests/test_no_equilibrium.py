@@ -1,4 +1,4 @@
-"""Why a sample with friction has no answer (docs/model.md section 12.6).
+"""Why a sample with friction has no answer (docs/model.md section 12.7).
 
 References are worked by hand:
 

@@ -1,4 +1,4 @@
-"""Friction on the spring arms with a nonlinear tissue law (docs/model.md section 12.5).
+"""Friction on the spring arms with a nonlinear tissue law (docs/model.md section 12.6).
 
 With friction, an element of the spring model is a normal spring and a tangential tie.
 With the linear law the normal spring is k_e and a state of the interface (which

@@ -1,4 +1,4 @@
-"""Why a sample with friction has no answer (docs/model.md section 12.6).
+"""Why a sample with friction has no answer (docs/model.md section 12.7).
 
 With Coulomb friction (``interface.friction_coefficient`` mu) a wrench can be beyond
 what the interface holds: the cuff would slide along the arm, twist around it or come

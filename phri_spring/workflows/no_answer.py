@@ -1,7 +1,7 @@
 """The forces table's columns on samples without an answer (runs with friction).
 
 A run with ``interface.friction_coefficient`` adds three columns after the standard ones
-(docs/model.md section 12.6): ``no_equilibrium_reason`` (empty where the sample has an
+(docs/model.md section 12.7): ``no_equilibrium_reason`` (empty where the sample has an
 answer, else one of :data:`~phri_spring.physics.no_equilibrium.REASONS`),
 ``no_equilibrium_shortfall_N`` [N] and ``no_equilibrium_shortfall_Nm`` [N*m] (the
 reason's shortfall in its unit, NaN otherwise). A bonded run (no key) has none of them:

@@ -353,7 +353,7 @@ class SimulateSummary:
     load_shares: tuple = (math.nan, math.nan, math.nan)
     #: interface.friction_coefficient of the run (None: bonded)
     friction_coefficient: Optional[float] = None
-    #: with friction: samples without an answer by reason (docs/model.md section 12.6)
+    #: with friction: samples without an answer by reason (docs/model.md section 12.7)
     no_answer_reasons: dict = field(default_factory=dict)
     #: with friction: the worst sample without an answer, (reason, time [s], shortfall,
     #: its unit "N" or "N*m"; NaN and "" when not converged), or None
