@@ -13,6 +13,8 @@ References are independent of the solver:
 - mu -> large with no element lifting off: the bonded model with the same law.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -186,3 +188,54 @@ def test_blocks_and_events_agree_with_the_exponential_law():
         assert ok
         np.testing.assert_allclose(Pi, P[i], rtol=0, atol=1e-9 * np.abs(r[i]).max())
         assert np.array_equal(state.cls, cls[i]), i
+
+
+def test_a_law_with_history_and_friction_is_refused_in_one_line():
+    from phri_spring.errors import ModelInputError
+    from phri_spring.physics.tissue_laws import LinearLaw
+
+    class Remembering(LinearLaw):
+        name = "remembering_test_law"
+        is_linear = False
+        has_state = True
+
+    g = cuff_geometry([0.0], 0.045, 0.025, 75.0, 35.0, 7)
+    with pytest.raises(ModelInputError, match="friction_coefficient.*history") as err:
+        build_model(g, 5e4, 1e6, law=Remembering, friction_coefficient=0.5)
+    assert "\n" not in str(err.value)
+
+
+def test_simulate_in_memory_with_friction_gives_the_reasons_in_its_frame():
+    import yaml
+    from pathlib import Path
+
+    from phri_spring.io.config import load_config
+    from phri_spring.workflows.simulate import simulate
+
+    root = Path(__file__).resolve().parents[1]
+    raw = yaml.safe_load((root / "configs" / "human_upper_arm.yaml").read_text())
+    raw["interface"]["friction_coefficient"] = 0.5
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "mu.yaml"
+        path.write_text(yaml.safe_dump(raw, sort_keys=False))
+        cfg = load_config(path)
+        W = np.zeros((3, 6))
+        W[1, 2] = 30.0          # at the load cell, 7 cm off the arm's axis: 2.1 N*m of torsion
+        frame = simulate(cfg, W).to_frame()
+        from phri_spring.workflows.common import cuff_wrench, model_from_config
+
+        model = model_from_config(cfg, "compliant")
+        bonded = model_from_config(dataclasses.replace(cfg, friction_coefficient=None),
+                                   "compliant")
+        r = cuff_wrench(cfg, W)[1] + model.W_pre
+        f_sum = solve(bonded, cuff_wrench(cfg, W)[1:2]).forces.sum()
+    assert list(frame["converged"]) == [True, False, True]
+    assert list(frame["no_equilibrium_reason"]) == ["", "torsion beyond friction capacity", ""]
+    # the shortfall: the torsion less what friction holds beside the axial force
+    cap = 0.5 * f_sum
+    expected = abs(r[3]) - 0.045 * np.sqrt(max(cap ** 2 - r[0] ** 2, 0.0))
+    assert expected > 0
+    np.testing.assert_allclose(frame["no_equilibrium_shortfall_Nm"][1], expected, rtol=1e-6)
+    assert np.isnan(frame["no_equilibrium_shortfall_N"]).all()

@@ -132,7 +132,7 @@ class SimulationResult:
         data = {"time": self.time}
         data.update({lab: self.forces[:, j] for j, lab in enumerate(self.labels)})
         for name, values in self.extras.items():
-            if name == "peak_pressure_element":  # (indices, labels), dictionary-encoded
+            if isinstance(values, tuple):  # (indices, labels), dictionary-encoded
                 idx, names = values
                 values = np.asarray(names, dtype=object)[idx]
             data[name] = values
