@@ -177,6 +177,14 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             unheld = cache[key] = frictionless_unheld(form)
     while i < m:
         guess = None
+        if unheld is not None and np.abs(unheld @ r[i]).max() > f_tol[i]:
+            # frictionless elements push only along their normals: a wrench outside their
+            # span (an axial force, a torsion) has no equilibrium, whatever the state
+            conv[i] = False
+            u[i], P[i] = np.nan, np.nan
+            cls[i] = RELEASED
+            i += 1
+            continue
         if not (state.cls == SLIDING).any() and (state.cls == STUCK).any():
             maps = (True if form.normal_response is not None
                     else _stuck_maps(form, cache, state.cls))
@@ -205,9 +213,7 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                         continue
         event = solve_event_elements if form.diagonal else solve_event_coupled
         if unheld is not None and np.abs(unheld @ r[i]).max() > f_tol[i]:
-            # frictionless elements push only along their normals: a wrench outside their
-            # span (an axial force, a torsion) has no equilibrium, whatever the state
-            ui, Pi, new, its, ok = state.u, state.P, state, 0, False
+            ui, Pi, new, its, ok = state.u, state.P, state, 0, False   # as at the loop's top
         else:
             ui, Pi, new, its, ok = event(form, r[i], state, guess)
         if not ok and its:
