@@ -15,7 +15,9 @@ Both arm models are written in one compliance form (the coupled model's, docs/mo
 section 10.3): patch forces P (n d, local axes: normal, axial, circumferential[, three
 rotations]), total compliance C, the rigid map T (n d, 6) and the preload offset delta.
 For the spring model C is diagonal (1/k_e normal, 1/k_s,e tangential, d = 3) and T's rows
-are b_e and the tangential rows of B_e. For a given state the equilibrium is linear:
+are b_e and the tangential rows of B_e; with a nonlinear tissue law its normal springs are
+the series elements instead (:mod:`phri_spring.physics.friction_normal`: the states'
+samples are then solved by Newton's method per row rather than affinely). For a given state the equilibrium is linear:
 
     stuck or sliding, normal and rotational dofs:  (C P)_i = (T u + delta - z)_i
     stuck, tangential dofs:                        (C P)_i = (T u + delta - z)_i
@@ -198,7 +200,8 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                 else:   # a nonlinear tissue law: Newton per row, the state fixed
                     ub, Pb, k, guess = block_nonlinear(form, state, r[i:e], f_tol[i:e],
                                                        x_tol[i:e])
-                width = min(_BLOCK, 2 * width) if k == e - i else _FIRST_BLOCK
+                full = k == e - i
+                width = min(_BLOCK, 2 * width) if full else _FIRST_BLOCK
                 if k:
                     u[i:i + k], P[i:i + k] = ub, Pb
                     cls[i:i + k] = state.cls
@@ -207,7 +210,7 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     i += k
                     if i >= m:
                         break
-                    if k == e - i + k and form.normal_response is not None:
+                    if full and form.normal_response is not None:
                         # the whole block kept the state: the next one may too (a nonlinear
                         # block costs a Newton iteration, an event several)
                         continue
