@@ -17,7 +17,8 @@ rotations]), total compliance C, the rigid map T (n d, 6) and the preload offset
 For the spring model C is diagonal (1/k_e normal, 1/k_s,e tangential, d = 3) and T's rows
 are b_e and the tangential rows of B_e; with a nonlinear tissue law its normal springs are
 the series elements instead (:mod:`phri_spring.physics.friction_normal`: the states'
-samples are then solved by Newton's method per row rather than affinely). For a given state the equilibrium is linear:
+samples are then solved by Newton's method per row rather than affinely). For a given
+state the equilibrium is linear:
 
     stuck or sliding, normal and rotational dofs:  (C P)_i = (T u + delta - z)_i
     stuck, tangential dofs:                        (C P)_i = (T u + delta - z)_i
