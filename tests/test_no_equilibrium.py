@@ -163,3 +163,32 @@ def test_simulate_writes_the_reasons_and_the_summary_names_the_worst(tmp_path):
                              catch_exceptions=False)
     assert res.exit_code == 0, res.output
     assert not any("no_equilibrium" in c for c in pd.read_csv(out).columns)
+
+
+# the coupled event solver's Newton overflows on its way to giving up on the sample beyond
+# capacity (the coupled friction path is being reworked on another branch)
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning")
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")
+def test_coupled_ring_axial_force_beyond_capacity():
+    # a coupled ring whose compliance couples no normal dof to a tangential one: an axial
+    # force leaves every normal force at the strap's f0 (symmetry), so friction holds at
+    # most mu n f0 of it, as for the spring ring
+    from phri_spring.physics.coupled import build_coupled_model
+
+    n = 8
+    g = cuff_geometry([0.0], R, 0.025, 0.0, 360.0 / n, n)
+    d2 = np.sum((g.points[:, None, :] - g.points[None, :, :]) ** 2, axis=-1)
+    rot = np.diag([1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3])
+    C = 2e-5 * np.kron(np.eye(n), rot) + 1e-5 * np.kron(np.exp(-d2 / 0.03 ** 2), rot)
+    model = build_coupled_model(g, np.linalg.inv(C), 2e5, strap_tension=20.0,
+                                friction_coefficient=MU)
+    bonded = solve(build_coupled_model(g, np.linalg.inv(C), 2e5, strap_tension=20.0),
+                   np.zeros((1, 6)))
+    cap = MU * bonded.forces.sum()
+    W = np.zeros((4, 6))
+    W[1, 0], W[3, 0] = 0.9 * cap, 1.2 * cap
+    sol = solve(model, W)
+    assert list(sol.converged) == [True, True, True, False]
+    code, s_N, s_Nm = explain(model, W, sol.converged)
+    assert list(code) == [NONE, NONE, NONE, AXIAL]
+    np.testing.assert_allclose(s_N[3], 0.2 * cap, rtol=1e-6)
