@@ -133,12 +133,11 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         write_simulate_plot(pool.result(), plot, labels=summary.labels,
                             pain_threshold_kpa=config.pain_threshold_kpa,
                             title=f"{Path(log).name}: {arm} arm")
-    if summary.not_converged:
-        why = ("; with friction a load that friction and the strap cannot hold has no "
-               "equilibrium (the cuff would slide along, twist around or come off the arm)"
-               if summary.friction_coefficient is not None else "")
+    if summary.not_converged and summary.friction_coefficient is not None:
+        warn(no_answer_text(summary))
+    elif summary.not_converged:
         warn(f"the solver did not converge for {summary.not_converged:,} of "
-             f"{summary.samples:,} samples; their forces are NaN (column 'converged'){why}")
+             f"{summary.samples:,} samples; their forces are NaN (column 'converged')")
     if math.isfinite(summary.max_peak_pressure_kpa):
         peak = (f"peak pressure {summary.max_peak_pressure_kpa:.4g} kPa at "
                 f"{summary.max_peak_element}, t = {summary.max_peak_time:g} s "
@@ -163,6 +162,24 @@ def _law_clause(config, arm) -> str:
 
     cfg = config if isinstance(config, Config) else load_config(config)
     return f", {arm_law_text(cfg, arm)}" if arm != "rigid" and is_nonlinear(cfg) else ""
+
+
+def no_answer_text(summary) -> str:
+    """The warning of a run with friction where some samples have no answer: their share,
+    by reason, and the worst (docs/model.md section 12.7)."""
+    share = 100.0 * summary.not_converged / max(summary.samples, 1)
+    reasons = ", ".join(f"{count:,} {reason}" for reason, count in
+                        sorted(summary.no_answer_reasons.items(), key=lambda kv: -kv[1]))
+    text = (f"{summary.not_converged:,} of {summary.samples:,} samples ({share:.3g}%) have no "
+            f"equilibrium with friction mu = {summary.friction_coefficient:g}"
+            + (f" ({reasons})" if reasons else "")
+            + "; their forces are NaN (columns 'converged', 'no_equilibrium_reason')")
+    worst = summary.worst_no_answer
+    if worst is not None:
+        reason, t, value, unit = worst
+        short = f", {value:.4g} {unit} short" if math.isfinite(value) else ""
+        text += f"; worst: {reason} at t = {t:g} s{short}"
+    return text
 
 
 def load_path_text(summary) -> str:

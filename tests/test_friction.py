@@ -253,15 +253,6 @@ def test_bad_friction_coefficient_is_a_typed_error(bad):
         build_model(g, 5e4, 1e6, friction_coefficient=bad)
 
 
-def test_friction_with_a_nonlinear_law_is_refused():
-    from phri_spring.errors import ModelInputError
-
-    g = cuff_geometry([0.0], 0.045, 0.025, 75.0, 35.0, 7)
-    with pytest.raises(ModelInputError, match="nonlinear"):
-        build_model(g, 5e4, 1e6, law="exponential", law_parameters={"stiffening": 50.0},
-                    friction_coefficient=0.5)
-
-
 def _coupled_push_cycle():
     """A coupled cuff (Gaussian-coupled patch compliance) pushed to 60 N and back."""
     g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)

@@ -28,8 +28,8 @@ HUMAN = ROOT / "configs" / "human_upper_arm.yaml"
 def _config(tmp_path, mu, **tissue):
     raw = yaml.safe_load(HUMAN.read_text())
     raw.setdefault("interface", {})["friction_coefficient"] = mu
-    # friction needs a linear tissue law (docs/model.md section 12) and the preset's tissue
-    # stiffens (tissue.stiffening): these checks use its linear law unless told otherwise
+    # the preset's tissue stiffens (tissue.stiffening): these checks use its linear law
+    # unless told otherwise (test_outputs_obey_the_laws runs both)
     raw["tissue"].pop("stiffening", None)
     raw["tissue"].update(tissue)
     path = tmp_path / "mu.yaml"
@@ -60,10 +60,12 @@ def _log(tmp_path, cfg_path, seed=0, m=400):
     return path, W_lc
 
 
-@pytest.mark.parametrize("arm", ["compliant", "rigid", "coupled"])
-def test_outputs_obey_the_laws(tmp_path, arm):
+@pytest.mark.parametrize("arm, tissue", [("compliant", {}), ("rigid", {}), ("coupled", {}),
+                                         ("compliant", {"stiffening": 115.0})],
+                         ids=["compliant", "rigid", "coupled", "compliant-exponential"])
+def test_outputs_obey_the_laws(tmp_path, arm, tissue):
     mu = 0.4
-    cfg_path = _config(tmp_path, mu)
+    cfg_path = _config(tmp_path, mu, **tissue)
     log, W_lc = _log(tmp_path, cfg_path)
     out = tmp_path / "forces.parquet"
     res = CliRunner().invoke(phri, ["simulate", str(cfg_path), str(log), "-o", str(out),
@@ -120,17 +122,6 @@ def test_a_bad_coefficient_is_one_line_exit_1(tmp_path, value):
     assert res.exit_code == 1
     lines = [ln for ln in res.output.splitlines() if ln.strip()]
     assert len(lines) == 1 and "interface.friction_coefficient" in lines[0], res.output
-    assert not out.exists()
-
-
-def test_friction_with_the_exponential_law_is_refused(tmp_path):
-    cfg_path = _config(tmp_path, 0.5, law="exponential", stiffening=40.0)
-    log, _ = _log(tmp_path, HUMAN, m=20)
-    out = tmp_path / "forces.csv"
-    res = CliRunner().invoke(phri, ["simulate", str(cfg_path), str(log), "-o", str(out)],
-                             catch_exceptions=False)
-    assert res.exit_code == 1
-    assert "interface.friction_coefficient" in res.output and "nonlinear" in res.output
     assert not out.exists()
 
 

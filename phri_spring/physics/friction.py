@@ -15,7 +15,10 @@ Both arm models are written in one compliance form (the coupled model's, docs/mo
 section 10.3): patch forces P (n d, local axes: normal, axial, circumferential[, three
 rotations]), total compliance C, the rigid map T (n d, 6) and the preload offset delta.
 For the spring model C is diagonal (1/k_e normal, 1/k_s,e tangential, d = 3) and T's rows
-are b_e and the tangential rows of B_e. For a given state the equilibrium is linear:
+are b_e and the tangential rows of B_e; with a nonlinear tissue law its normal springs are
+the series elements instead (:mod:`phri_spring.physics.friction_normal`: the states'
+samples are then solved by Newton's method per row rather than affinely). For a given
+state the equilibrium is linear:
 
     stuck or sliding, normal and rotational dofs:  (C P)_i = (T u + delta - z)_i
     stuck, tangential dofs:                        (C P)_i = (T u + delta - z)_i
@@ -43,6 +46,7 @@ import numpy as np
 from scipy.linalg import cho_factor, cho_solve
 
 from .friction_events import solve_event_coupled, solve_event_elements
+from .friction_normal import block_nonlinear, frictionless_unheld
 # the shared pieces, importable from here too
 from .friction_form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
                             PathState, _scales, initial_state, interface_form)
@@ -168,16 +172,37 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     r_state = form.T.T @ state.P
     i = 0
     width = _FIRST_BLOCK
+    unheld = None
+    if form.diagonal and form.mu == 0:
+        key = ("frictionless_unheld", id(form))
+        unheld = cache.get(key)
+        if unheld is None:
+            unheld = cache[key] = frictionless_unheld(form)
     while i < m:
         guess = None
+        if unheld is not None and np.abs(unheld @ r[i]).max() > f_tol[i]:
+            # frictionless elements push only along their normals: a wrench outside their
+            # span (an axial force, a torsion) has no equilibrium, whatever the state
+            conv[i] = False
+            u[i], P[i] = np.nan, np.nan
+            cls[i] = RELEASED
+            i += 1
+            continue
         if not (state.cls == SLIDING).any() and (state.cls == STUCK).any():
-            maps = _stuck_maps(form, cache, state.cls)
+            maps = (True if form.normal_response is not None
+                    else _stuck_maps(form, cache, state.cls))
             if maps:
                 # the state usually holds for long stretches between events: grow the
                 # block while it does, start small again after an event
                 e = min(m, i + width)
-                ub, Pb, k, guess = _block(form, maps, state, r[i:e], f_tol[i:e], x_tol[i:e])
-                width = min(_BLOCK, 2 * width) if k == e - i else _FIRST_BLOCK
+                if form.normal_response is None:
+                    ub, Pb, k, guess = _block(form, maps, state, r[i:e], f_tol[i:e],
+                                              x_tol[i:e])
+                else:   # a nonlinear tissue law: Newton per row, the state fixed
+                    ub, Pb, k, guess = block_nonlinear(form, state, r[i:e], f_tol[i:e],
+                                                       x_tol[i:e])
+                full = k == e - i
+                width = min(_BLOCK, 2 * width) if full else _FIRST_BLOCK
                 if k:
                     u[i:i + k], P[i:i + k] = ub, Pb
                     cls[i:i + k] = state.cls
@@ -186,13 +211,22 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     i += k
                     if i >= m:
                         break
+                    if full and form.normal_response is not None:
+                        # the whole block kept the state: the next one may too (a nonlinear
+                        # block costs a Newton iteration, an event several)
+                        continue
         event = solve_event_elements if form.diagonal else solve_event_coupled
-        ui, Pi, new, its, ok = event(form, r[i], state, guess)
-        if not ok:
+        if unheld is not None and np.abs(unheld @ r[i]).max() > f_tol[i]:
+            ui, Pi, new, its, ok = state.u, state.P, state, 0, False   # as at the loop's top
+        else:
+            ui, Pi, new, its, ok = event(form, r[i], state, guess)
+        if not ok and its:
             # the semismooth Newton can cycle between two sets where a patch sits on the
             # edge of its cone or of contact: the wrench since the last consistent state is
             # then applied in 2, 4, ... equal increments (a finer path), each from the last
-            ui, Pi, new, more, ok = _substeps(event, form, r_state, r[i], state, 1)
+            # (the spring model's elements are independent: one halving, into 2)
+            ui, Pi, new, more, ok = _substeps(event, form, r_state, r[i], state,
+                                              _MAX_HALVINGS if form.diagonal else 1)
             its += more
         solves[i] = its
         if ok:

@@ -66,12 +66,18 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     only; tangential: the trial force k_s (J_e u - z_e) from where it stuck, scaled back
     onto the cone when outside), so the equilibrium is six equations in u, solved by a
     semismooth Newton method with the consistent tangent and a backtracking line search
-    on the residual, from ``u0`` (default: the last sample's u). Returns (u, P, new state,
+    on the residual, from ``u0`` (default: the last sample's u). With a nonlinear tissue
+    law (``form.normal_response``) the normal force and its tangent are the series
+    element's (:mod:`phri_spring.physics.friction_normal`). Returns (u, P, new state,
     solves, ok) as :func:`solve_event`.
     """
     el = form.elements
     n, mu = form.n, form.mu
     kn, kt, dn = el.kn, el.kt, el.dn
+    normal = form.normal_response
+    # the tissue's share of every element, carried between evaluations as the next guess
+    share = [None if normal is None else
+             normal.memo_from_force(state.P[0::3], el.Tn @ state.u + dn)]
     # where each element's tie starts: stuck or sliding ones from their slip, released
     # ones land where they were at the last sample (their skin does not move)
     z0 = state.z[:, 1:3].copy()
@@ -79,14 +85,20 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     if rel.any():
         z0[rel] = (el.Tt @ state.u).reshape(n, 2)[rel]
     force_scale = np.abs(r).max() + np.abs(form.W_pre).max() + 1e-300
+    if normal is not None:
+        force_scale += normal.preload_scale(dn)
     tol = 1e-13 * force_scale
 
     def forces(u):
         g = el.Tn @ u
         g += dn
         c = g > 0
-        Pn = kn * g
-        Pn[~c] = 0.0
+        if normal is None:
+            Pn = kn * g
+            Pn[~c] = 0.0
+            kN = kn
+        else:
+            Pn, kN, share[0] = normal.evaluate(g, share[0])
         trial = (el.Tt @ u).reshape(n, 2)
         trial -= z0
         trial *= kt[:, None]
@@ -101,10 +113,10 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
             Pt[slide] = (mu * Pn[slide])[:, None] * dirn
         Pt[~c] = 0.0
         R = el.TnT @ Pn + el.TtT @ Pt.ravel() - r
-        return R, c, Pn, Pt, slide, dirn, tn
+        return R, c, Pn, Pt, slide, dirn, tn, kN
 
     u = (state.u if u0 is None else u0).copy()
-    R, c, Pn, Pt, slide, dirn, tn = forces(u)
+    R, c, Pn, Pt, slide, dirn, tn, kN = forces(u)
     res = np.abs(R).max()
     its = 0
     history = []
@@ -116,17 +128,17 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
         history.append(res)
         its += 1
         stick = c & ~slide
-        K = ((kn * c) @ el.NN + (kt * stick) @ el.TT).reshape(6, 6)
+        K = ((kN * c) @ el.NN + (kt * stick) @ el.TT).reshape(6, 6)
         if dirn is not None:
             sl = np.flatnonzero(slide)
             Tts = el.Tt3[sl]
             # d(mu Pn d)/du = mu kn d Tn^T + mu Pn / |trial| kt (I - d d^T) Tt
             proj = np.eye(2)[None] - dirn[:, :, None] * dirn[:, None, :]
-            dPt = (mu * kn[sl])[:, None, None] * dirn[:, :, None] * el.Tn[sl, None, :]
+            dPt = (mu * kN[sl])[:, None, None] * dirn[:, :, None] * el.Tn[sl, None, :]
             dPt += ((mu * Pn[sl] / tn[sl]) * kt[sl])[:, None, None] * (proj @ Tts)
             K += np.einsum("eki,ekj->ij", Tts, dPt)
         u, cand, res = _line_search(forces, u, _newton_step(K, R), res)
-        R, c, Pn, Pt, slide, dirn, tn = cand
+        R, c, Pn, Pt, slide, dirn, tn, kN = cand
     ok = res <= tol * 10 and np.all(np.isfinite(u))
     if not ok:
         return state.u, state.P, state, max(its, 1), False

@@ -42,6 +42,9 @@ class InterfaceForm:
         Coulomb coefficient [-].
     diagonal : bool
         C is diagonal (the spring model).
+    normal_response : NormalResponse or None
+        The spring model's normal law where it is not the linear spring 1/C (a nonlinear
+        tissue law, :mod:`phri_spring.physics.friction_normal`); None: linear.
     """
 
     n: int
@@ -53,6 +56,7 @@ class InterfaceForm:
     W_pre: np.ndarray
     mu: float
     diagonal: bool
+    normal_response: object = None
 
     @property
     def normal(self) -> np.ndarray:
@@ -97,8 +101,13 @@ def interface_form(model) -> InterfaceForm:
     comp = np.stack([1.0 / model.k, 1.0 / model.k_shear, 1.0 / model.k_shear], axis=1).ravel()
     delta = np.zeros((n, 3))
     delta[:, 0] = model.delta0
+    normal = None
+    if not model.element.is_linear:
+        from .friction_normal import NormalResponse   # it builds on this module
+
+        normal = NormalResponse(model.element)
     return InterfaceForm(n=n, d=3, C=np.diag(comp), C_skin=None, T=T, delta=delta.ravel(),
-                         W_pre=model.W_pre, mu=mu, diagonal=True)
+                         W_pre=model.W_pre, mu=mu, diagonal=True, normal_response=normal)
 
 
 @dataclass

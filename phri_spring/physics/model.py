@@ -280,8 +280,8 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
     law_parameters : dict, optional
         The law's parameters (name -> number or (n,) array, in their units).
     friction_coefficient : float, optional
-        Coulomb coefficient mu >= 0 [-] of docs/model.md section 12 (linear law only);
-        None keeps the bonded shear springs.
+        Coulomb coefficient mu >= 0 [-] of docs/model.md section 12 (with any tissue law:
+        the normal response is the series element); None keeps the bonded shear springs.
 
     Raises
     ------
@@ -326,10 +326,10 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
         W_pre = W_handles
 
     mu = check_friction(friction_coefficient)
-    if mu is not None and not element.is_linear:
-        raise ModelInputError("interface.friction_coefficient: friction is not yet available "
-                              "with a nonlinear tissue law; use tissue.law: linear",
-                              "friction_coefficient")
+    if mu is not None and element.law is not None and element.law.has_state:
+        raise ModelInputError("interface.friction_coefficient: friction is not available with a "
+                              f"tissue law with history ({element.law.name}): the friction path "
+                              "does not advance the law's state", "friction_coefficient")
     return SpringModel(geometry=geometry, arm=arm, k=k, k_shear=k_s, K_s=K_s, delta0=delta0,
                        f0=f0, W_pre=W_pre, strap_model=strap_model,
                        pain_threshold_kpa=float(pain_threshold_kpa), element=element,

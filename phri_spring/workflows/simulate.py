@@ -32,10 +32,12 @@ from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, read
                        table_format)
 from ..physics.load_path import force_parts, share_sums
 from ..physics.model import SpringModel
+from ..physics.no_equilibrium import arm_radius
 from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
 from ..io.memory_budget import plan_stream
 from .plotting import MaxPool
+from .no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, NoAnswerTally, no_equilibrium_extras
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
@@ -130,7 +132,7 @@ class SimulationResult:
         data = {"time": self.time}
         data.update({lab: self.forces[:, j] for j, lab in enumerate(self.labels)})
         for name, values in self.extras.items():
-            if name == "peak_pressure_element":  # (indices, labels), dictionary-encoded
+            if isinstance(values, tuple):  # (indices, labels), dictionary-encoded
                 idx, names = values
                 values = np.asarray(names, dtype=object)[idx]
             data[name] = values
@@ -299,11 +301,12 @@ def _shear_extras(model, sol) -> dict:
 class _Chunk:
     """One solved chunk: its solution, its (baseline-zeroed) forces and, on demand, its extras."""
 
-    __slots__ = ("model", "solution", "forces", "shear", "_extras")
+    __slots__ = ("model", "solution", "forces", "shear", "_extras", "wrench")
 
-    def __init__(self, model, solution, forces, shear: bool):
+    def __init__(self, model, solution, forces, shear: bool, wrench=None):
         self.model, self.solution, self.forces, self.shear = model, solution, forces, shear
         self._extras = None
+        self.wrench = wrench      # the cuff wrenches solved (for the no-answer columns)
 
     def extras(self):
         """``(extras, peak_index)`` of :func:`per_sample_extras` (and the shear columns)."""
@@ -313,6 +316,8 @@ class _Chunk:
                                             sol.converged)
             if self.shear:
                 extras.update(_shear_extras(self.model, sol))
+            if self.wrench is not None and self.model.friction_coefficient is not None:
+                extras.update(no_equilibrium_extras(self.model, self.wrench, sol))
             self._extras = extras, idx
         return self._extras
 
@@ -322,7 +327,7 @@ def _solve_chunk(model, W, f_base, max_iterations: int, cache: FactorCache,
     """Solve cuff wrenches W (m, 6) and zero the forces by the baseline f_base (n,) or None."""
     sol = solve(model, W, max_iterations=max_iterations, cache=cache)
     forces = sol.forces if f_base is None else sol.forces - f_base
-    return _Chunk(model, sol, forces, shear)
+    return _Chunk(model, sol, forces, shear, W)
 
 
 @dataclass
@@ -348,6 +353,11 @@ class SimulateSummary:
     load_shares: tuple = (math.nan, math.nan, math.nan)
     #: interface.friction_coefficient of the run (None: bonded)
     friction_coefficient: Optional[float] = None
+    #: with friction: samples without an answer by reason (docs/model.md section 12.7)
+    no_answer_reasons: dict = field(default_factory=dict)
+    #: with friction: the worst sample without an answer, (reason, time [s], shortfall,
+    #: its unit "N" or "N*m"; NaN and "" when not converged), or None
+    worst_no_answer: Optional[tuple] = None
 
 
 @dataclass(frozen=True)
@@ -523,10 +533,14 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         # the CSV writer's threads
         chunks = prefetch(chunks)
     law = model.law
+    tally = NoAnswerTally(arm_radius(model.geometry))
     try:
-        summary = _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear)
+        summary = _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
+                          tally)
+        reasons, worst = tally.result()
         return dataclasses.replace(summary, tissue_law=law.name if law is not None else "",
-                                   friction_coefficient=model.friction_coefficient)
+                                   friction_coefficient=model.friction_coefficient,
+                                   no_answer_reasons=reasons, worst_no_answer=worst)
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
@@ -588,7 +602,8 @@ class SummaryAccumulator:
                                else (math.nan,) * 3)
 
 
-def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear):
+def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
+            tally=None):
     cfg = run.cfg
     acc = SummaryAccumulator(model.labels)
     cache = FactorCache()  # one run, one model: factorisations reused across chunks
@@ -598,11 +613,14 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
         def compute():
             extras, idx = chunk.extras()
             acc.add_peak(number, time, extras, idx)
+            if tally is not None:
+                tally.add(number, time, extras)
             return extras
         return compute
 
     with run.writer(model.labels, _extra_arrow_types(model.labels if shear else (),
-                                                     has_patch_moments(model)),
+                                                     has_patch_moments(model),
+                                                     model.friction_coefficient is not None),
                     decimals=decimals) as writer:
         for number, (ch, W) in enumerate(chunks):
             chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
@@ -619,11 +637,13 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     return acc.summary(run.output, f_base)
 
 
-def _extra_arrow_types(shear_labels=(), moments: bool = False) -> dict:
+def _extra_arrow_types(shear_labels=(), moments: bool = False, friction: bool = False) -> dict:
     import pyarrow as pa
 
     types = {"int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
              "label": pa.dictionary(pa.int32(), pa.string())}
     out = {name: types[kind] for name, kind in EXTRA_COLUMN_TYPES}
     out.update({name: pa.float64() for name in shear_columns(shear_labels, moments)})
+    if friction:   # why a sample has no answer (physics/no_equilibrium.py)
+        out.update({name: types[kind] for name, kind in NO_EQUILIBRIUM_COLUMN_TYPES})
     return out
