@@ -30,7 +30,7 @@ from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
-from ..physics.load_path import force_parts, share_sums
+from ..physics.load_path import shear_rows, transmitted_sums
 from ..physics.model import SpringModel
 from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
@@ -543,21 +543,23 @@ class SummaryAccumulator:
         self.labels = tuple(labels)
         self.samples = self.not_converged = self.it_max = self.it_sum = 0
         self._peaks = {}  # chunk number -> (peak [kPa], element, pain ratio, time [s])
-        self._proj = np.zeros(3)   # sum over samples of F_k . F (docs/model.md section 12.4)
-        self._mag2 = 0.0           # sum over samples of |F|^2
+        self._transmitted = {}  # chunk number -> its load_path.share_sums (3,) [N]
+        self._rows = None          # load_path.shear_rows of a bonded spring model, made once
 
-    def add_load_path(self, model, sol) -> None:
-        """Add a chunk's split of the applied force (normal, tangential, lifted)."""
+    def add_load_path(self, number: int, model, sol) -> None:
+        """Add chunk ``number``'s force passed to the skin by kind (normal, tangential,
+        lifted; docs/model.md section 12.4); chunks may come from any thread, in any order."""
         ok = np.asarray(sol.converged, dtype=bool)
         if not ok.any():
             return
-        tang = None if sol.tangential is None else sol.tangential[ok]
-        parts = force_parts(model, sol.u[ok], sol.contact[ok],
-                            normal=sol.forces[ok] if tang is not None else None,
-                            tangential=tang)
-        proj, mag2 = share_sums(parts)
-        self._proj += proj
-        self._mag2 += mag2
+        u, contact, forces, tang = sol.u, sol.contact, sol.forces, sol.tangential
+        if not ok.all():
+            u, contact, forces = u[ok], contact[ok], forces[ok]
+            tang = None if tang is None else tang[ok]
+        if tang is None and not hasattr(model, "patch_forces") and self._rows is None:
+            self._rows = shear_rows(model)
+        self._transmitted[number] = transmitted_sums(model, u, contact, normal=forces,
+                                                     tangential=tang, rows=self._rows)
 
     def add_solution(self, sol) -> None:
         self.samples += len(sol.iterations)
@@ -578,13 +580,17 @@ class SummaryAccumulator:
         for number in sorted(self._peaks):
             if self._peaks[number][0] > best[0]:
                 best = self._peaks[number]
+        sums = np.zeros(3)
+        for number in sorted(self._transmitted):  # in order: the same round-off every run
+            sums += self._transmitted[number]
+        total = sums.sum()
         return SimulateSummary(output=output, samples=self.samples,
                                not_converged=self.not_converged, max_peak_pressure_kpa=best[0],
                                max_peak_element=best[1], max_pain_ratio=best[2],
                                max_peak_time=best[3], max_iterations_used=self.it_max,
                                mean_iterations=self.it_sum / max(self.samples, 1),
                                baseline_forces=baseline_forces, labels=self.labels,
-                               load_shares=tuple(self._proj / self._mag2) if self._mag2 > 0
+                               load_shares=tuple(sums / total) if total > 0
                                else (math.nan,) * 3)
 
 
@@ -596,6 +602,7 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     def extras_job(number, time, chunk):
         # runs on a writer thread, overlapping the solving of the next chunks
         def compute():
+            acc.add_load_path(number, model, chunk.solution)
             extras, idx = chunk.extras()
             acc.add_peak(number, time, extras, idx)
             return extras
@@ -607,7 +614,6 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
         for number, (ch, W) in enumerate(chunks):
             chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
             acc.add_solution(chunk.solution)
-            acc.add_load_path(model, chunk.solution)
             job = extras_job(number, ch.time, chunk)
             if on_chunk is not None:  # the observer needs the extras now, in order
                 extras = job()
