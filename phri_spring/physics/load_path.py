@@ -25,7 +25,7 @@ from .geometry import element_jacobians
 from .solver import normal_forces
 
 __all__ = ["force_parts", "shear_rows", "transmitted", "transmitted_sums", "share_sums",
-           "load_shares"]
+           "load_shares", "ChunkedShares"]
 
 #: rows of a chunk handled at a time by :func:`transmitted`: its (rows, 2n) temporaries
 #: then stay in the processor's cache instead of going out to memory and back per step
@@ -137,9 +137,9 @@ def transmitted_sums(model, u, contact, normal=None, tangential=None, rows=None)
     out the ones that did not converge)."""
     u, S, fn, ft = _magnitudes(model, u, contact, normal, tangential)
     if ft is not None:
-        touch = np.einsum("me,me->", ft, S.astype(float))
-        return np.array([np.einsum("me,me->", fn, S.astype(float)), touch,
-                         max(ft.sum() - touch, 0.0)])
+        touching = S.astype(float)
+        return np.array([np.einsum("me,me->", fn, touching), np.einsum("me,me->", ft, touching),
+                         np.einsum("me,me->", ft, (~S).astype(float))])
     out = np.zeros(3)
     for lo, hi, mag, touching in _bonded_blocks(model, u, S, rows):
         flat = touching.ravel()
@@ -210,3 +210,35 @@ def load_shares(parts: np.ndarray, weighted: bool = True) -> np.ndarray:
     total = parts.sum(axis=1, keepdims=True)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(total > 0, parts / total, np.nan)
+
+
+class ChunkedShares:
+    """The load-weighted shares of a log solved chunk by chunk: :func:`transmitted_sums` of
+    each chunk's converged samples, added in chunk order (the same round-off whichever
+    thread adds a chunk first)."""
+
+    def __init__(self):
+        self._sums = {}     # chunk number -> (3,) [N]
+        self._rows = None   # shear_rows of a bonded spring model, made once
+
+    def add(self, number: int, model, sol) -> None:
+        """Chunk ``number``'s :class:`~phri_spring.physics.solution.Solution` of ``model``."""
+        ok = np.asarray(sol.converged, dtype=bool)
+        if not ok.any():
+            return
+        u, contact, forces, tang = sol.u, sol.contact, sol.forces, sol.tangential
+        if not ok.all():
+            u, contact, forces = u[ok], contact[ok], forces[ok]
+            tang = None if tang is None else tang[ok]
+        if tang is None and not hasattr(model, "patch_forces") and self._rows is None:
+            self._rows = shear_rows(model)
+        self._sums[number] = transmitted_sums(model, u, contact, normal=forces,
+                                              tangential=tang, rows=self._rows)
+
+    def shares(self) -> tuple:
+        """(normal, tangential, lifted) [-], NaN when nothing was passed to the skin."""
+        sums = np.zeros(3)
+        for number in sorted(self._sums):
+            sums += self._sums[number]
+        total = sums.sum()
+        return tuple(sums / total) if total > 0 else (np.nan,) * 3

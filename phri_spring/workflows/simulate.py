@@ -30,7 +30,7 @@ from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
-from ..physics.load_path import shear_rows, transmitted_sums
+from ..physics.load_path import ChunkedShares
 from ..physics.model import SpringModel
 from ..physics.solver import FactorCache, solve
 from .common import cuff_wrench, model_from_config
@@ -342,9 +342,10 @@ class SimulateSummary:
     labels: tuple
     #: the tissue law the model ran (``linear``, ``exponential``, ...; "" for no tissue)
     tissue_law: str = ""
-    #: shares of the applied force carried by the normal forces in contact, the tangential
-    #: forces in contact and the lifted elements' bonded springs (load-weighted over the
-    #: log, docs/model.md section 12.4) [-]; NaN when no force was applied
+    #: shares of the force passed to the skin (magnitudes summed over elements and samples)
+    #: by the normal forces in contact, the tangential forces in contact and the lifted
+    #: elements' bonded springs, each in [0, 1], adding up to one (docs/model.md section
+    #: 12.4) [-]; NaN when nothing was passed
     load_shares: tuple = (math.nan, math.nan, math.nan)
     #: interface.friction_coefficient of the run (None: bonded)
     friction_coefficient: Optional[float] = None
@@ -543,23 +544,12 @@ class SummaryAccumulator:
         self.labels = tuple(labels)
         self.samples = self.not_converged = self.it_max = self.it_sum = 0
         self._peaks = {}  # chunk number -> (peak [kPa], element, pain ratio, time [s])
-        self._transmitted = {}  # chunk number -> its load_path.share_sums (3,) [N]
-        self._rows = None          # load_path.shear_rows of a bonded spring model, made once
+        self._shares = ChunkedShares()  # what carries the load (docs/model.md section 12.4)
 
     def add_load_path(self, number: int, model, sol) -> None:
         """Add chunk ``number``'s force passed to the skin by kind (normal, tangential,
-        lifted; docs/model.md section 12.4); chunks may come from any thread, in any order."""
-        ok = np.asarray(sol.converged, dtype=bool)
-        if not ok.any():
-            return
-        u, contact, forces, tang = sol.u, sol.contact, sol.forces, sol.tangential
-        if not ok.all():
-            u, contact, forces = u[ok], contact[ok], forces[ok]
-            tang = None if tang is None else tang[ok]
-        if tang is None and not hasattr(model, "patch_forces") and self._rows is None:
-            self._rows = shear_rows(model)
-        self._transmitted[number] = transmitted_sums(model, u, contact, normal=forces,
-                                                     tangential=tang, rows=self._rows)
+        lifted); chunks may come from any thread, in any order."""
+        self._shares.add(number, model, sol)
 
     def add_solution(self, sol) -> None:
         self.samples += len(sol.iterations)
@@ -580,18 +570,13 @@ class SummaryAccumulator:
         for number in sorted(self._peaks):
             if self._peaks[number][0] > best[0]:
                 best = self._peaks[number]
-        sums = np.zeros(3)
-        for number in sorted(self._transmitted):  # in order: the same round-off every run
-            sums += self._transmitted[number]
-        total = sums.sum()
         return SimulateSummary(output=output, samples=self.samples,
                                not_converged=self.not_converged, max_peak_pressure_kpa=best[0],
                                max_peak_element=best[1], max_pain_ratio=best[2],
                                max_peak_time=best[3], max_iterations_used=self.it_max,
                                mean_iterations=self.it_sum / max(self.samples, 1),
                                baseline_forces=baseline_forces, labels=self.labels,
-                               load_shares=tuple(sums / total) if total > 0
-                               else (math.nan,) * 3)
+                               load_shares=self._shares.shares())
 
 
 def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear):
