@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from .geometry import element_jacobians
+from .model import SpringModel
 from .solver import normal_forces
 
 __all__ = ["force_parts", "shear_rows", "transmitted", "transmitted_sums", "share_sums",
@@ -164,6 +165,9 @@ def _magnitudes(model, u, contact, normal, tangential):
         return u, S, np.abs(np.asarray(normal, dtype=float)), np.hypot(ft[..., 0], ft[..., 1])
     # f_e >= 0 by the element law
     fn = normal_forces(model, u) if normal is None else np.asarray(normal, dtype=float)
+    if not isinstance(model, SpringModel):   # another arm's model: its own shear forces
+        ft = model.shear_components(u, S)
+        return u, S, fn, np.hypot(ft[..., 0], ft[..., 1])
     return u, S, fn, None
 
 
@@ -230,7 +234,7 @@ class ChunkedShares:
         if not ok.all():
             u, contact, forces = u[ok], contact[ok], forces[ok]
             tang = None if tang is None else tang[ok]
-        if tang is None and not hasattr(model, "patch_forces") and self._rows is None:
+        if isinstance(model, SpringModel) and tang is None and self._rows is None:
             self._rows = shear_rows(model)
         self._sums[number] = transmitted_sums(model, u, contact, normal=forces,
                                               tangential=tang, rows=self._rows)
