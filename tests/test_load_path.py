@@ -215,3 +215,21 @@ def test_printed_percentages_add_up_to_100(shares):
     printed = [float(x) for x in percent_parts(s)]
     assert sum(printed) == pytest.approx(100.0, abs=1e-9)
     assert np.all(np.abs(np.array(printed) - 100 * s) < 0.1 + 1e-9)
+
+
+class _Wrapped:
+    """Another arm's model: not a SpringModel, with the model interface the summary reads."""
+
+    def __init__(self, model):
+        self._m = model
+
+    def __getattr__(self, name):
+        return getattr(self._m, name)
+
+
+def test_another_arms_model_gives_its_own_shear_forces():
+    model = _harmony()
+    sol = solve(model, _loads(200, seed=9))
+    fast = transmitted_sums(model, sol.u, sol.contact, normal=sol.forces)
+    other = transmitted_sums(_Wrapped(model), sol.u, sol.contact, normal=sol.forces)
+    np.testing.assert_allclose(other, fast, rtol=1e-12)
