@@ -28,7 +28,7 @@ from .solver import normal_forces
 __all__ = ["force_parts", "shear_rows", "transmitted", "transmitted_sums", "share_sums",
            "load_shares", "ChunkedShares"]
 
-#: rows of a chunk handled at a time by :func:`transmitted`: its (rows, 2n) temporaries
+#: rows of a chunk handled at a time by :func:`_bonded_blocks`: its (rows, n) temporaries
 #: then stay in the processor's cache instead of going out to memory and back per step
 _BLOCK_ROWS = 2048
 
@@ -191,8 +191,7 @@ def _bonded_blocks(model, u, S, rows):
 
 def share_sums(parts: np.ndarray) -> np.ndarray:
     """Sum over samples of :func:`transmitted`'s ``parts`` (m, 3), samples with a
-    non-finite part left out: what the load-weighted shares are the ratio of, and what a
-    streamed run adds up chunk by chunk."""
+    non-finite part left out: what the load-weighted shares are the ratio of."""
     parts = np.asarray(parts, dtype=float)
     ok = np.isfinite(parts).all(axis=1)
     return parts[ok].sum(axis=0) if not ok.all() else parts.sum(axis=0)
