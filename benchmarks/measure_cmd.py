@@ -9,8 +9,9 @@ that the machine's drift during the measurement touches every command alike.
 Before each run (not timed) the command's output file, if given, is deleted and
 the file systems are synced, so that every run writes a new file and no run
 pays for the disk write-back of the one before (a 10 h output is 720 MB).
-Prints, for each command, the wall times [s] and peak RSS [MB] (the kernel's
-ru_maxrss of each run).
+Prints, for each command, the wall times [s], peak RSS [MB] (the kernel's
+ru_maxrss of each run) and CPU times [s] (user + system of the process and the threads
+it waited for: less moved by other jobs on a shared machine than the wall time).
 
 It exists because the peak RSS the kernel reports for a child includes the
 memory of the process that forked it: measured from a large benchmark process,
@@ -29,18 +30,19 @@ def run_once(cmd):
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - t0
+    cpu = usage.ru_utime + usage.ru_stime
     err = proc.stderr.read().decode(errors="replace")
     proc.stderr.close()
     if os.waitstatus_to_exitcode(status) != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed: {err}")
-    return wall, usage.ru_maxrss / 1024.0
+    return wall, usage.ru_maxrss / 1024.0, cpu
 
 
 def main():
     spec = json.loads(sys.argv[1])
     cmds = spec["cmds"]
     outputs = spec.get("outputs") or [None] * len(cmds)
-    out = [{"walls": [], "rss": []} for _ in cmds]
+    out = [{"walls": [], "rss": [], "cpus": []} for _ in cmds]
     try:
         rounds = int(spec["repeats"]) + (1 if spec.get("warmup", True) else 0)
         for r in range(rounds):
@@ -49,11 +51,12 @@ def main():
                     os.remove(output)
                 if hasattr(os, "sync"):
                     os.sync()
-                wall, rss = run_once(cmd)
+                wall, rss, cpu = run_once(cmd)
                 if spec.get("warmup", True) and r == 0:
                     continue
                 res["walls"].append(wall)
                 res["rss"].append(rss)
+                res["cpus"].append(cpu)
     except RuntimeError as exc:
         print(json.dumps({"error": str(exc)}))
         return

@@ -183,18 +183,29 @@ def no_answer_text(summary) -> str:
 
 
 def load_path_text(summary) -> str:
-    """The summary's clause on what carries the applied force (docs/model.md section 12.4)."""
-    normal, tangential, lifted = summary.load_shares
-    if not math.isfinite(normal):
-        return "no applied force"
+    """The summary's clause on what the cuff passes to the skin, by kind (docs/model.md
+    section 12.4): shares of the summed force magnitudes over the log, adding up to 100 %."""
+    if not all(math.isfinite(x) for x in summary.load_shares):
+        return "no force passed to the skin"
+    normal, tangential, lifted = percent_parts(summary.load_shares)
     kind = "friction" if summary.friction_coefficient is not None else "bonded ties"
-    text = (f"applied force carried {100 * normal:.0f}% by normal forces, "
-            f"{100 * tangential:.0f}% by {kind} in contact")
+    text = f"force passed to the skin: {normal}% normal, {tangential}% {kind} in contact"
     if summary.friction_coefficient is None:
-        text += f", {100 * lifted:.1f}% by lifted elements' bonded springs"
-        if abs(lifted) >= 0.01:
+        text += f", {lifted}% lifted elements' bonded springs"
+        if summary.load_shares[2] >= 0.01:
             text += " (set interface.friction_coefficient to release them)"
     return text
+
+
+def percent_parts(shares, decimals: int = 1) -> list:
+    """Shares that add up to one as percentages with ``decimals`` decimals that add up to
+    100 as printed (largest remainder: the rounding goes to the largest fractions)."""
+    scale = 100 * 10 ** decimals
+    raw = [scale * x for x in shares]
+    parts = [math.floor(x) for x in raw]
+    for i in sorted(range(len(raw)), key=lambda i: parts[i] - raw[i])[:scale - sum(parts)]:
+        parts[i] += 1
+    return [f"{p / 10 ** decimals:.{decimals}f}" for p in parts]
 
 
 def _check_draws(config, log, output, arm, colmap, group, draws, sd):

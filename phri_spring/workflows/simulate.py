@@ -30,7 +30,7 @@ from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
-from ..physics.load_path import force_parts, share_sums
+from ..physics.load_path import ChunkedShares
 from ..physics.model import SpringModel
 from ..physics.no_equilibrium import arm_radius
 from ..physics.solver import FactorCache, solve
@@ -347,9 +347,10 @@ class SimulateSummary:
     labels: tuple
     #: the tissue law the model ran (``linear``, ``exponential``, ...; "" for no tissue)
     tissue_law: str = ""
-    #: shares of the applied force carried by the normal forces in contact, the tangential
-    #: forces in contact and the lifted elements' bonded springs (load-weighted over the
-    #: log, docs/model.md section 12.4) [-]; NaN when no force was applied
+    #: shares of the force passed to the skin (magnitudes summed over elements and samples)
+    #: by the normal forces in contact, the tangential forces in contact and the lifted
+    #: elements' bonded springs, each in [0, 1], adding up to one (docs/model.md section
+    #: 12.4) [-]; NaN when nothing was passed
     load_shares: tuple = (math.nan, math.nan, math.nan)
     #: interface.friction_coefficient of the run (None: bonded)
     friction_coefficient: Optional[float] = None
@@ -557,21 +558,12 @@ class SummaryAccumulator:
         self.labels = tuple(labels)
         self.samples = self.not_converged = self.it_max = self.it_sum = 0
         self._peaks = {}  # chunk number -> (peak [kPa], element, pain ratio, time [s])
-        self._proj = np.zeros(3)   # sum over samples of F_k . F (docs/model.md section 12.4)
-        self._mag2 = 0.0           # sum over samples of |F|^2
+        self._shares = ChunkedShares()  # what carries the load (docs/model.md section 12.4)
 
-    def add_load_path(self, model, sol) -> None:
-        """Add a chunk's split of the applied force (normal, tangential, lifted)."""
-        ok = np.asarray(sol.converged, dtype=bool)
-        if not ok.any():
-            return
-        tang = None if sol.tangential is None else sol.tangential[ok]
-        parts = force_parts(model, sol.u[ok], sol.contact[ok],
-                            normal=sol.forces[ok] if tang is not None else None,
-                            tangential=tang)
-        proj, mag2 = share_sums(parts)
-        self._proj += proj
-        self._mag2 += mag2
+    def add_load_path(self, number: int, model, sol) -> None:
+        """Add chunk ``number``'s force passed to the skin by kind (normal, tangential,
+        lifted); chunks may come from any thread, in any order."""
+        self._shares.add(number, model, sol)
 
     def add_solution(self, sol) -> None:
         self.samples += len(sol.iterations)
@@ -598,8 +590,7 @@ class SummaryAccumulator:
                                max_peak_time=best[3], max_iterations_used=self.it_max,
                                mean_iterations=self.it_sum / max(self.samples, 1),
                                baseline_forces=baseline_forces, labels=self.labels,
-                               load_shares=tuple(self._proj / self._mag2) if self._mag2 > 0
-                               else (math.nan,) * 3)
+                               load_shares=self._shares.shares())
 
 
 def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
@@ -611,6 +602,7 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     def extras_job(number, time, chunk):
         # runs on a writer thread, overlapping the solving of the next chunks
         def compute():
+            acc.add_load_path(number, model, chunk.solution)
             extras, idx = chunk.extras()
             acc.add_peak(number, time, extras, idx)
             if tally is not None:
@@ -625,7 +617,6 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
         for number, (ch, W) in enumerate(chunks):
             chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
             acc.add_solution(chunk.solution)
-            acc.add_load_path(model, chunk.solution)
             job = extras_job(number, ch.time, chunk)
             if on_chunk is not None:  # the observer needs the extras now, in order
                 extras = job()
