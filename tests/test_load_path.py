@@ -24,7 +24,7 @@ from conftest import build_both, physics_cases, run_phri, wrenches
 from phri_cli.simulate import percent_parts
 from phri_spring.io.config import load_config
 from phri_spring.physics.coupled import build_coupled_model
-from phri_spring.physics.geometry import cuff_geometry
+from phri_spring.physics.geometry import cuff_geometry, section_geometry
 from phri_spring.physics.load_path import (force_parts, load_shares, share_sums, shear_rows,
                                            transmitted, transmitted_sums)
 from phri_spring.physics.model import build_model, tissue_element_stiffness
@@ -41,6 +41,35 @@ def _harmony(arm="compliant", mu=None):
     g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
     k_t = tissue_element_stiffness(np.full(g.n, 4242.0), g.areas)
     return build_model(g, k_t, 2e5, arm=arm, strap_tension=15.0, friction_coefficient=mu)
+
+
+def _tapered_ellipse(arm="compliant"):
+    """An elliptic (0.8), turned, tapered (6 deg) limb: shear directions that are not +x."""
+    from phri_spring.physics.sections import EllipseSection
+
+    sec = (EllipseSection(0.05, 0.04, np.radians(20.0)),) * 3
+    g = section_geometry([-0.025, 0.0, 0.025], sec, 0.025, 75.0, 35.0, 7, taper_deg=6.0)
+    k_t = tissue_element_stiffness(np.full(g.n, 4242.0), g.areas)
+    return build_model(g, k_t, 2e5, arm=arm, strap_tension=15.0)
+
+
+def test_shear_rows_follow_a_tapered_limbs_meridian():
+    # with a taper the axial shear direction is the skin's meridian, not +x: the fast rows
+    # must give the model's own (m, n, 3) shear forces projected on its geometry's axes
+    model = _tapered_ellipse()
+    W = _loads(300, seed=4)
+    sol = solve(model, W)
+    assert sol.converged.all()
+    s = model.shear_forces(sol.u)                                     # (m, n, 3)
+    g = model.geometry
+    uR = sol.u @ shear_rows(model)
+    scale = np.abs(s).max()
+    np.testing.assert_allclose(uR[:, :model.n], np.sum(s * g.meridian, -1), atol=1e-12 * scale)
+    np.testing.assert_allclose(uR[:, model.n:], np.sum(s * g.circumferential, -1),
+                               atol=1e-12 * scale)
+    ref = _by_kind(sol.forces, np.linalg.norm(s, axis=-1), sol.contact)
+    got = transmitted(model, sol.u, sol.contact, normal=sol.forces)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-12 * ref.sum(1).max())
 
 
 def _coupled(mu=None):
