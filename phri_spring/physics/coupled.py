@@ -48,7 +48,15 @@ from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
 
 __all__ = ["CoupledModel", "CoupledSystem", "SetFactors", "build_coupled_model", "patch_frames",
-           "rigid_patch_map", "scale_patches"]
+           "rigid_patch_map", "scale_patches", "LIFT_OFF_MU"]
+
+#: Coulomb coefficient of the coupled arm's interface without ``interface.friction_coefficient``
+#: (docs/model.md section 10.2): a touching patch's tie holds while its tangential force is
+#: within LIFT_OFF_MU times its normal force, so it is bonded except as it lets go, and a
+#: patch out of contact carries nothing. Large against any skin-liner friction (at most
+#: about 1 dry, section 12.1) so that pressing patches do not slide, small enough that the
+#: sliding phase of a patch letting go spans more than round-off of its normal force.
+LIFT_OFF_MU = 10.0
 
 
 def patch_frames(geometry: CuffGeometry) -> np.ndarray:
@@ -153,6 +161,23 @@ class CoupledModel(OnGeometry):
     def __post_init__(self):
         object.__setattr__(self, "inv_area_kpa", 1.0 / (1000.0 * self.geometry.areas))
         object.__setattr__(self, "normal_dofs", np.arange(self.geometry.n) * self.dofs)
+
+    @property
+    def interface_mu(self) -> float:
+        """The Coulomb coefficient the interface runs with: ``friction_coefficient``, else
+        :data:`LIFT_OFF_MU` (bonded while touching, released when lifted; section 10.2)."""
+        return LIFT_OFF_MU if self.friction_coefficient is None else self.friction_coefficient
+
+    def reported_normal(self, P, touching) -> np.ndarray:
+        """The normal force each patch reports (m, n) [N] for patch forces P (m, n d), local
+        axes, and ``touching`` (m, n) bool: the normal traction integrated over each touching
+        patch (``N_out`` C_t P, never below 0) or, without an output map, P along n_e;
+        0 for a patch out of contact."""
+        P = np.atleast_2d(P)
+        f = P[:, self.normal_dofs] if self.N_out is None else P @ (self.N_out @ self.C_t).T
+        f = np.maximum(f, 0.0)
+        f[~np.asarray(touching, dtype=bool)] = 0.0
+        return f
 
     def contact_system(self, cache: FactorCache | None = None) -> "CoupledSystem":
         """The active-set kernel's system for this model (docs/model.md section 9)."""

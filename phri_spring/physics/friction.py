@@ -45,7 +45,7 @@ from scipy.linalg import cho_factor, cho_solve
 from .friction_events import solve_event_coupled, solve_event_elements
 # the shared pieces, importable from here too
 from .friction_form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
-                            PathState, _scales, initial_state, interface_form)
+                            PathState, _relative, _scales, initial_state, interface_form)
 
 __all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "solve_path",
            "RELEASED", "STUCK", "SLIDING"]
@@ -133,6 +133,55 @@ def _stuck_maps(form, cache, cls):
     return maps
 
 
+#: most changes of the contact set tried by :func:`_stuck_transition`
+_HOPS = 4
+
+
+def _stuck_transition(form, cache, state, r, f_tol, x_tol):
+    """The coupled model's usual event, cheaply: patches lift off or come back and every
+    touching one stays inside its cone. From the path's state (no patch sliding), the
+    patches the wrench r pulls off are released and the released ones it presses come
+    back (landing where they were, as in :func:`solve_event_coupled`), solved with the
+    cached maps of the new set and checked as a block row is; repeated up to _HOPS times.
+    Returns the event's (u, P, state, solves, True), or None where a patch would slide or
+    the set does not settle (then the semismooth Newton takes the sample)."""
+    n, d, mu = form.n, form.d, form.mu
+    cls = state.cls.copy()
+    z = state.z.copy()
+    was_off = cls == RELEASED
+    if was_off.any():
+        land = _relative(form, state.u, state.P).reshape(n, d)
+        z[was_off, 1:] = land[was_off, 1:]
+    for hop in range(1, _HOPS + 1):
+        maps = _stuck_maps(form, cache, cls)
+        if not maps:
+            return None
+        c, P0 = maps.offsets(form, z)
+        u = (r - c) @ maps.Hinv.T
+        PD = u @ maps.GT.T + P0
+        nd = PD.reshape(-1, d)
+        tn = np.sqrt(nd[:, 1] ** 2 + nd[:, 2] ** 2)
+        if np.any(tn > mu * np.maximum(nd[:, 0], 0.0) + f_tol):
+            return None
+        lift = nd[:, 0] < -f_tol
+        back = np.zeros(0, dtype=bool)
+        if maps.rel.size:
+            pen = maps.Q @ u + maps.d_rel
+            if maps.Cs is not None:
+                pen -= maps.Cs @ P0
+            back = pen > x_tol
+        if not lift.any() and not back.any():
+            P = np.zeros(n * d)
+            P[maps.D] = PD
+            new = PathState(cls=cls, z=z, s=state.s.copy(), u=u, P=P)
+            return u, P, new, hop, True
+        cls[np.flatnonzero(cls == STUCK)[lift]] = RELEASED
+        cls[maps.rel[back]] = STUCK
+        if not (cls == STUCK).any():
+            return None
+    return None
+
+
 def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: dict | None = None,
                max_updates: int | None = None):
     """Solve wrenches r = W + W_pre (m, 6) in order along the loading path.
@@ -187,7 +236,13 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     if i >= m:
                         break
         event = solve_event_elements if form.diagonal else solve_event_coupled
-        ui, Pi, new, its, ok = event(form, r[i], state, guess)
+        hop = None
+        if guess is not None and not form.diagonal:
+            hop = _stuck_transition(form, cache, state, r[i], f_tol[i], x_tol[i])
+        if hop is not None:
+            ui, Pi, new, its, ok = hop
+        else:
+            ui, Pi, new, its, ok = event(form, r[i], state, guess)
         if not ok:
             # the semismooth Newton can cycle between two sets where a patch sits on the
             # edge of its cone or of contact: the wrench since the last consistent state is
