@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
+from scipy.optimize import nnls
 
 from .friction_events import solve_event_coupled, solve_event_elements
 # the shared pieces, importable from here too
@@ -131,6 +132,26 @@ def _stuck_maps(form, cache, cls):
             maps = False
         cache[key] = maps
     return maps
+
+
+def _frictionless_reachable(form, cache, r, f_tol) -> bool:
+    """Whether compressive normal forces, with the patches' tied moments, can make the
+    wrench r (6,) at all: the necessary condition of an equilibrium without friction
+    (mu = 0). With Q the projector off the pure moments the rotations carry (none for the
+    spring model), it is min over f >= 0 of |Q (T_n^T f - r)| <= f_tol, a non-negative
+    least-squares problem on n unknowns. On a cylinder the normals have no axial part:
+    any axial force has no frictionless equilibrium, however small."""
+    key = "frictionless"
+    if key not in cache:
+        n, d = form.n, form.d
+        dof = np.arange(n * d).reshape(n, d)
+        A = form.T[dof[:, 0]].T                                   # (6, n)
+        B = form.T[dof[:, 3:].ravel()].T if d == 6 else np.zeros((6, 0))
+        Q = np.eye(6) - B @ np.linalg.pinv(B) if B.size else np.eye(6)
+        cache[key] = (Q @ A, Q)
+    QA, Q = cache[key]
+    _, res = nnls(QA, Q @ r)
+    return res <= f_tol
 
 
 #: most changes of the contact set tried by :func:`_stuck_transition`
@@ -236,6 +257,15 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     if i >= m:
                         break
         event = solve_event_elements if form.diagonal else solve_event_coupled
+        if form.mu == 0 and not _frictionless_reachable(form, cache, r[i], f_tol[i]):
+            # no equilibrium: without friction only the normal forces (and a patch's tied
+            # rotations, pure moments) hold the cuff, and they cannot make this wrench
+            conv[i] = False
+            u[i], P[i] = np.nan, np.nan
+            cls[i] = RELEASED
+            solves[i] = 1
+            i += 1
+            continue
         hop = None
         if guess is not None and not form.diagonal:
             hop = _stuck_transition(form, cache, state, r[i], f_tol[i], x_tol[i])
