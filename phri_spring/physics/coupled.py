@@ -154,6 +154,9 @@ class CoupledModel(OnGeometry):
     N_out: np.ndarray | None = field(default=None, repr=False,
                                      metadata=field_unit("[N/m, N/rad]",
                                                           "docs/model.md section 10"))
+    #: without ``friction_coefficient``: a patch out of contact is released (the default,
+    #: :data:`LIFT_OFF_MU`); False: every patch's ties stay bonded (the program of 10.3)
+    lift_off: bool = True
     inv_area_kpa: np.ndarray = field(init=False, repr=False,
                                      metadata=field_unit("1/(1000 N)", "derived"))
     normal_dofs: np.ndarray = field(init=False, repr=False, metadata=field_unit("-", "derived"))
@@ -163,10 +166,13 @@ class CoupledModel(OnGeometry):
         object.__setattr__(self, "normal_dofs", np.arange(self.geometry.n) * self.dofs)
 
     @property
-    def interface_mu(self) -> float:
+    def interface_mu(self) -> float | None:
         """The Coulomb coefficient the interface runs with: ``friction_coefficient``, else
-        :data:`LIFT_OFF_MU` (bonded while touching, released when lifted; section 10.2)."""
-        return LIFT_OFF_MU if self.friction_coefficient is None else self.friction_coefficient
+        :data:`LIFT_OFF_MU` (bonded while touching, released when lifted; section 10.2);
+        None with ``lift_off`` False (bonded ties everywhere, solved sample by sample)."""
+        if self.friction_coefficient is not None:
+            return self.friction_coefficient
+        return LIFT_OFF_MU if self.lift_off else None
 
     def reported_normal(self, P, touching) -> np.ndarray:
         """The normal force each patch reports (m, n) [N] for patch forces P (m, n d), local
@@ -437,7 +443,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                         strap_model: str = "hoop", handle_angles_deg=None,
                         handle_axial_position: float | None = None,
                         pain_threshold_kpa: float = 120.0, normal_output=None,
-                        friction_coefficient: float | None = None) -> CoupledModel:
+                        friction_coefficient: float | None = None,
+                        lift_off: bool = True) -> CoupledModel:
     """Assemble the coupled model of docs/model.md section 10.
 
     Parameters
@@ -460,7 +467,12 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
         (same dof layout as K_surface), e.g. the integral of the normal traction over
         the patch (the built-in FE's). Default: the patch force along n_e.
     friction_coefficient : float, optional
-        Coulomb coefficient mu >= 0 [-] (docs/model.md section 12); None: bonded.
+        Coulomb coefficient mu >= 0 [-] (docs/model.md section 12); None: a touching patch
+        bonded, one out of contact released (``lift_off``, :data:`LIFT_OFF_MU`).
+    lift_off : bool
+        False (without ``friction_coefficient``): every patch's tangential and rotational
+        ties stay bonded, lifted or not (the program of docs/model.md 10.3, solved sample by
+        sample; the coupled arm's default before lift-off released).
 
     Raises
     ------
@@ -545,7 +557,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     model = CoupledModel(geometry=geometry, arm="coupled", K_t=K, dofs=dofs, k_cuff=k_c,
                          shear_ratio=eta, delta=delta, f0=f0, W_pre=W_pre, T=T, C=C, C_t=C_t,
                          strap_model=strap_model, pain_threshold_kpa=float(pain_threshold_kpa),
-                         N_out=N_out, friction_coefficient=check_friction(friction_coefficient))
+                         N_out=N_out, friction_coefficient=check_friction(friction_coefficient),
+                         lift_off=bool(lift_off))
     # every patch lifted off: the tangential ties alone must hold the cuff
     try:
         model.contact_system(FactorCache(0))._reduced_problem()
