@@ -78,7 +78,16 @@ def test_outputs_obey_the_laws(tmp_path, arm, tissue):
     labels = geom.labels
     ok = df["converged"].to_numpy()
     assert ok.all()
-    fn = df[list(labels)].to_numpy()[ok]
+    reported = df[list(labels)].to_numpy()[ok]
+    # the normal force along n_e, read off each element's force in the cuff frame (the
+    # coupled arm's label columns are its patches' traction integrals, which differ)
+    Fe = np.stack([df[[f"{lab}_force_{a}_N" for a in "xyz"]].to_numpy()[ok] for lab in labels],
+                  axis=1)
+    fn = np.einsum("mei,ei->me", Fe, cfg.geometry().normals)
+    fn[np.all(Fe == 0.0, axis=2)] = 0.0           # released: exactly nothing
+    assert np.all(reported[fn == 0] == 0.0)       # and a released patch reads 0
+    if arm != "coupled":
+        np.testing.assert_allclose(fn, reported, rtol=0, atol=1e-12 * np.abs(reported).max())
     ta = df[[f"{lab}_shear_axial_N" for lab in labels]].to_numpy()[ok]
     tc = df[[f"{lab}_shear_circumferential_N" for lab in labels]].to_numpy()[ok]
     tn = np.hypot(ta, tc)

@@ -48,7 +48,15 @@ from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
 
 __all__ = ["CoupledModel", "CoupledSystem", "SetFactors", "build_coupled_model", "patch_frames",
-           "rigid_patch_map", "scale_patches"]
+           "rigid_patch_map", "scale_patches", "LIFT_OFF_MU"]
+
+#: Coulomb coefficient of the coupled arm's interface without ``interface.friction_coefficient``
+#: (docs/model.md section 10.2): a touching patch's tie holds while its tangential force is
+#: within LIFT_OFF_MU times its normal force, so it is bonded except as it lets go, and a
+#: patch out of contact carries nothing. Large against any skin-liner friction (at most
+#: about 1 dry, section 12.1) so that pressing patches do not slide, small enough that the
+#: sliding phase of a patch letting go spans more than round-off of its normal force.
+LIFT_OFF_MU = 10.0
 
 
 def patch_frames(geometry: CuffGeometry) -> np.ndarray:
@@ -144,6 +152,9 @@ class CoupledModel(OnGeometry):
     N_out: np.ndarray | None = field(default=None, repr=False,
                                      metadata=field_unit("[N/m, N/rad]",
                                                           "docs/model.md section 10"))
+    #: without ``friction_coefficient``: a patch out of contact is released (the default,
+    #: :data:`LIFT_OFF_MU`); False: every patch's ties stay bonded (the program of 10.3)
+    lift_off: bool = True
     inv_area_kpa: np.ndarray = field(init=False, repr=False,
                                      metadata=field_unit("1/(1000 N)", "derived"))
     normal_dofs: np.ndarray = field(init=False, repr=False, metadata=field_unit("-", "derived"))
@@ -151,6 +162,26 @@ class CoupledModel(OnGeometry):
     def __post_init__(self):
         object.__setattr__(self, "inv_area_kpa", 1.0 / (1000.0 * self.geometry.areas))
         object.__setattr__(self, "normal_dofs", np.arange(self.geometry.n) * self.dofs)
+
+    @property
+    def interface_mu(self) -> float | None:
+        """The Coulomb coefficient the interface runs with: ``friction_coefficient``, else
+        :data:`LIFT_OFF_MU` (bonded while touching, released when lifted; section 10.2);
+        None with ``lift_off`` False (bonded ties everywhere, solved sample by sample)."""
+        if self.friction_coefficient is not None:
+            return self.friction_coefficient
+        return LIFT_OFF_MU if self.lift_off else None
+
+    def reported_normal(self, P, touching) -> np.ndarray:
+        """The normal force each patch reports (m, n) [N] for patch forces P (m, n d), local
+        axes, and ``touching`` (m, n) bool: the normal traction integrated over each touching
+        patch (``N_out`` C_t P, never below 0) or, without an output map, P along n_e;
+        0 for a patch out of contact."""
+        P = np.atleast_2d(P)
+        f = P[:, self.normal_dofs] if self.N_out is None else P @ (self.N_out @ self.C_t).T
+        f = np.maximum(f, 0.0)
+        f[~np.asarray(touching, dtype=bool)] = 0.0
+        return f
 
     def contact_system(self, cache: FactorCache | None = None) -> "CoupledSystem":
         """The active-set kernel's system for this model (docs/model.md section 9)."""
@@ -410,7 +441,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                         strap_model: str = "hoop", handle_angles_deg=None,
                         handle_axial_position: float | None = None,
                         pain_threshold_kpa: float = 120.0, normal_output=None,
-                        friction_coefficient: float | None = None) -> CoupledModel:
+                        friction_coefficient: float | None = None,
+                        lift_off: bool = True) -> CoupledModel:
     """Assemble the coupled model of docs/model.md section 10.
 
     Parameters
@@ -433,7 +465,12 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
         (same dof layout as K_surface), e.g. the integral of the normal traction over
         the patch (the built-in FE's). Default: the patch force along n_e.
     friction_coefficient : float, optional
-        Coulomb coefficient mu >= 0 [-] (docs/model.md section 12); None: bonded.
+        Coulomb coefficient mu >= 0 [-] (docs/model.md section 12); None: a touching patch
+        bonded, one out of contact released (``lift_off``, :data:`LIFT_OFF_MU`).
+    lift_off : bool
+        False (without ``friction_coefficient``): every patch's tangential and rotational
+        ties stay bonded, lifted or not (the program of docs/model.md 10.3, solved sample by
+        sample; the coupled arm's default before lift-off released).
 
     Raises
     ------
@@ -518,7 +555,8 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     model = CoupledModel(geometry=geometry, arm="coupled", K_t=K, dofs=dofs, k_cuff=k_c,
                          shear_ratio=eta, delta=delta, f0=f0, W_pre=W_pre, T=T, C=C, C_t=C_t,
                          strap_model=strap_model, pain_threshold_kpa=float(pain_threshold_kpa),
-                         N_out=N_out, friction_coefficient=check_friction(friction_coefficient))
+                         N_out=N_out, friction_coefficient=check_friction(friction_coefficient),
+                         lift_off=bool(lift_off))
     # every patch lifted off: the tangential ties alone must hold the cuff
     try:
         model.contact_system(FactorCache(0))._reduced_problem()

@@ -44,12 +44,13 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
+from scipy.optimize import nnls
 
 from .friction_events import solve_event_coupled, solve_event_elements
 from .friction_normal import block_nonlinear, frictionless_unheld
 # the shared pieces, importable from here too
 from .friction_form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
-                            PathState, _scales, initial_state, interface_form)
+                            PathState, _relative, _scales, initial_state, interface_form)
 
 __all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "solve_path",
            "RELEASED", "STUCK", "SLIDING"]
@@ -137,6 +138,75 @@ def _stuck_maps(form, cache, cls):
     return maps
 
 
+def _frictionless_reachable(form, cache, r, f_tol) -> bool:
+    """Whether compressive normal forces, with the patches' tied moments, can make the
+    wrench r (6,) at all: the necessary condition of an equilibrium without friction
+    (mu = 0). With Q the projector off the pure moments the rotations carry (none for the
+    spring model), it is min over f >= 0 of |Q (T_n^T f - r)| <= f_tol, a non-negative
+    least-squares problem on n unknowns. On a cylinder the normals have no axial part:
+    any axial force has no frictionless equilibrium, however small."""
+    key = "frictionless"
+    if key not in cache:
+        n, d = form.n, form.d
+        dof = np.arange(n * d).reshape(n, d)
+        A = form.T[dof[:, 0]].T                                   # (6, n)
+        B = form.T[dof[:, 3:].ravel()].T if d == 6 else np.zeros((6, 0))
+        Q = np.eye(6) - B @ np.linalg.pinv(B) if B.size else np.eye(6)
+        cache[key] = (Q @ A, Q)
+    QA, Q = cache[key]
+    _, res = nnls(QA, Q @ r)
+    return res <= f_tol
+
+
+#: most changes of the contact set tried by :func:`_stuck_transition`
+_HOPS = 4
+
+
+def _stuck_transition(form, cache, state, r, f_tol, x_tol):
+    """The coupled model's usual event, cheaply: patches lift off or come back and every
+    touching one stays inside its cone. From the path's state (no patch sliding), the
+    patches the wrench r pulls off are released and the released ones it presses come
+    back (landing where they were, as in :func:`solve_event_coupled`), solved with the
+    cached maps of the new set and checked as a block row is; repeated up to _HOPS times.
+    Returns the event's (u, P, state, solves, True), or None where a patch would slide or
+    the set does not settle (then the semismooth Newton takes the sample)."""
+    n, d, mu = form.n, form.d, form.mu
+    cls = state.cls.copy()
+    z = state.z.copy()
+    was_off = cls == RELEASED
+    if was_off.any():
+        land = _relative(form, state.u, state.P).reshape(n, d)
+        z[was_off, 1:] = land[was_off, 1:]
+    for hop in range(1, _HOPS + 1):
+        maps = _stuck_maps(form, cache, cls)
+        if not maps:
+            return None
+        c, P0 = maps.offsets(form, z)
+        u = (r - c) @ maps.Hinv.T
+        PD = u @ maps.GT.T + P0
+        nd = PD.reshape(-1, d)
+        tn = np.sqrt(nd[:, 1] ** 2 + nd[:, 2] ** 2)
+        if np.any(tn > mu * np.maximum(nd[:, 0], 0.0) + f_tol):
+            return None
+        lift = nd[:, 0] < -f_tol
+        back = np.zeros(0, dtype=bool)
+        if maps.rel.size:
+            pen = maps.Q @ u + maps.d_rel
+            if maps.Cs is not None:
+                pen -= maps.Cs @ P0
+            back = pen > x_tol
+        if not lift.any() and not back.any():
+            P = np.zeros(n * d)
+            P[maps.D] = PD
+            new = PathState(cls=cls, z=z, s=state.s.copy(), u=u, P=P)
+            return u, P, new, hop, True
+        cls[np.flatnonzero(cls == STUCK)[lift]] = RELEASED
+        cls[maps.rel[back]] = STUCK
+        if not (cls == STUCK).any():
+            return None
+    return None
+
+
 def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: dict | None = None,
                max_updates: int | None = None):
     """Solve wrenches r = W + W_pre (m, 6) in order along the loading path.
@@ -216,11 +286,22 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                         # block costs a Newton iteration, an event several)
                         continue
         event = solve_event_elements if form.diagonal else solve_event_coupled
-        if unheld is not None and np.abs(unheld @ r[i]).max() > f_tol[i]:
-            ui, Pi, new, its, ok = state.u, state.P, state, 0, False   # as at the loop's top
+        # no equilibrium at all: without friction only the normal forces (and a patch's
+        # tied rotations, pure moments) hold the cuff, and they cannot make this wrench
+        hopeless = form.mu == 0 and (
+            np.abs(unheld @ r[i]).max() > f_tol[i] if unheld is not None
+            else not _frictionless_reachable(form, cache, r[i], f_tol[i]))
+        if hopeless:
+            ui, Pi, new, its, ok = state.u, state.P, state, 1, False
         else:
-            ui, Pi, new, its, ok = event(form, r[i], state, guess)
-        if not ok and its:
+            hop = None
+            if guess is not None and not form.diagonal:
+                hop = _stuck_transition(form, cache, state, r[i], f_tol[i], x_tol[i])
+            if hop is not None:
+                ui, Pi, new, its, ok = hop
+            else:
+                ui, Pi, new, its, ok = event(form, r[i], state, guess)
+        if not ok and not hopeless:
             # the semismooth Newton can cycle between two sets where a patch sits on the
             # edge of its cone or of contact: the wrench since the last consistent state is
             # then applied in 2, 4, ... equal increments (a finer path), each from the last

@@ -15,8 +15,8 @@ from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
 
 from .geometry import element_jacobians
 
-__all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "RELEASED",
-           "STUCK", "SLIDING", "STATE_RTOL"]
+__all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "interface_mu",
+           "RELEASED", "STUCK", "SLIDING", "STATE_RTOL"]
 
 RELEASED, STUCK, SLIDING = 0, 1, 2
 #: relative tolerance of the state checks (forces against the sample's force scale)
@@ -87,9 +87,19 @@ class ElementArrays:
         self.Tt3 = Tt3
 
 
+def interface_mu(model) -> float | None:
+    """The Coulomb coefficient a model's interface runs with along a loading path, or None
+    for bonded ties solved sample by sample (the spring model without
+    ``friction_coefficient``, the hyperelastic coupled arms). The linear coupled arm always
+    has one: its ``friction_coefficient``, else the lift-off cone's (docs/model.md 10.2)."""
+    mu = getattr(model, "interface_mu", None)
+    return getattr(model, "friction_coefficient", None) if mu is None else mu
+
+
 def interface_form(model) -> InterfaceForm:
-    """The compliance form of a spring or coupled model with ``friction_coefficient`` set."""
-    mu = float(model.friction_coefficient)
+    """The compliance form of a spring model with ``friction_coefficient`` set, or of a
+    linear coupled model (:func:`interface_mu`)."""
+    mu = float(interface_mu(model))
     if hasattr(model, "K_t"):        # the coupled model: already in this form
         return InterfaceForm(n=model.n, d=model.dofs, C=model.C, C_skin=model.C_t, T=model.T,
                              delta=model.delta, W_pre=model.W_pre, mu=mu, diagonal=False)

@@ -230,7 +230,11 @@ class ChunkedShares:
         ok = np.asarray(sol.converged, dtype=bool)
         if not ok.any():
             return
-        u, contact, forces, tang = sol.u, sol.contact, sol.forces, sol.tangential
+        # the force along n_e where the solution has it (friction, the coupled arm's lift-off
+        # cone): its reported forces are then the FSR-like traction integrals
+        normal = getattr(sol, "normal", None)
+        forces = sol.forces if normal is None else normal
+        u, contact, tang = sol.u, sol.contact, sol.tangential
         if not ok.all():
             u, contact, forces = u[ok], contact[ok], forces[ok]
             tang = None if tang is None else tang[ok]

@@ -33,12 +33,17 @@ class Solution:
     moments : ndarray, shape (m, n, 3), or None
         With friction and patches with rotations: each patch's moment on the skin about
         its centre, local axes (normal, axial, circumferential) [N*m]. None otherwise.
+    normal : ndarray, shape (m, n), or None
+        With friction (and on the linear coupled arm): each element's or patch's normal
+        force along n_e [N], 0 when released, the one the balance of forces uses (a coupled
+        patch *reports* in ``forces`` its traction integral, which differs). None otherwise.
     """
 
-    __slots__ = ("u", "forces", "iterations", "converged", "contact", "tangential", "moments")
+    __slots__ = ("u", "forces", "iterations", "converged", "contact", "tangential", "moments",
+                 "normal")
 
     def __init__(self, u, forces, iterations, converged, contact, tangential=None,
-                 moments=None):
+                 moments=None, normal=None):
         self.u = u
         self.forces = forces
         self.iterations = iterations
@@ -46,6 +51,7 @@ class Solution:
         self.contact = contact
         self.tangential = tangential
         self.moments = moments
+        self.normal = normal
 
     def __repr__(self):
         return (f"Solution(samples={np.shape(self.forces)[0] if np.ndim(self.forces) > 1 else 1}, "

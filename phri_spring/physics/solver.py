@@ -28,6 +28,7 @@ import numpy as np
 from .spd6 import spd_solve_batched as _spd_solve_batched
 from .spring_newton import solve_newton, solve_newton_warm
 from .solution import Solution
+from .friction_form import interface_mu
 from .spring_outputs import (compression, energy, forces_from_compression, normal_forces,
                              shear_forces)
 from .active_set import (PLAIN_ITERATIONS, SET_RTOL, ContactSystem, FactorCache, iterate,
@@ -269,7 +270,7 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     if int(max_iterations) < 1:
         raise ValueError("max_iterations: expected >= 1")
     max_iterations = int(max_iterations)
-    if getattr(model, "friction_coefficient", None) is not None:
+    if interface_mu(model) is not None:
         return _solve_friction(model, W, single, cache)
     if hasattr(model, "solve_wrenches"):
         return _solve_direct(model, W, single, out, max_iterations)
@@ -374,14 +375,15 @@ def solve_segments(model, wrench, bounds, *, max_iterations: int = 100) -> Solut
     path from the strap's state (e.g. the trials of a comparison). Without friction a
     sample does not depend on the ones before, and this is one :func:`solve`."""
     W = np.atleast_2d(np.asarray(wrench, dtype=float))
-    if getattr(model, "friction_coefficient", None) is None:
+    if interface_mu(model) is None:
         return solve(model, W, max_iterations=max_iterations)
     parts = [solve(model, W[a:b], max_iterations=max_iterations)
              for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
     cat = {name: np.concatenate([getattr(p, name) for p in parts])
            for name in ("u", "forces", "iterations", "converged", "contact", "tangential")}
-    cat["moments"] = (None if parts[0].moments is None
-                      else np.concatenate([p.moments for p in parts]))
+    for name in ("moments", "normal"):
+        cat[name] = (None if getattr(parts[0], name) is None
+                     else np.concatenate([getattr(p, name) for p in parts]))
     return Solution(**cat)
 
 
@@ -405,21 +407,24 @@ def _solve_friction(model, W, single: bool, cache: FactorCache | None,
     conv &= finite
     n, d = form.n, form.d
     Pe = P.reshape(len(W), n, d)
-    forces = np.maximum(Pe[:, :, 0], 0.0)
+    normal = Pe[:, :, 0].copy()
     tangential = Pe[:, :, 1:3].copy()
     moments = Pe[:, :, 3:6].copy() if d == 6 else None
     contact = (cls > 0) & conv[:, None]
-    forces[~conv] = np.nan
-    tangential[~conv] = np.nan
-    if moments is not None:
-        moments[~conv] = np.nan
+    if hasattr(model, "reported_normal"):   # a coupled patch reports its traction integral
+        forces = model.reported_normal(P, contact)
+    else:
+        forces = np.maximum(normal, 0.0)
+    for a in (forces, normal, tangential, moments):
+        if a is not None:
+            a[~conv] = np.nan
     its = np.maximum(solves, 1)
     if single:
         return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
                         contact=contact[0], tangential=tangential[0],
-                        moments=None if moments is None else moments[0])
+                        moments=None if moments is None else moments[0], normal=normal[0])
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact,
-                    tangential=tangential, moments=moments)
+                    tangential=tangential, moments=moments, normal=normal)
 
 
 def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
@@ -432,7 +437,7 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
     the reference the optimised path is tested and benchmarked against.
     """
     W = np.atleast_2d(np.asarray(wrench, dtype=float))
-    if getattr(model, "friction_coefficient", None) is not None:
+    if interface_mu(model) is not None:
         return _per_sample_friction(model, W)
     if hasattr(model, "solve_wrenches"):
         rows = [model.solve_wrenches(W[i:i + 1], max_iterations) for i in range(len(W))]
@@ -475,9 +480,12 @@ def _per_sample_friction(model, W) -> Solution:
             u[i], P[i], state = ui, Pi, new
             contact[i] = new.cls > 0
     Pe = P.reshape(m, n, d)
-    return Solution(u=u, forces=np.maximum(Pe[:, :, 0], 0.0), iterations=its, converged=conv,
+    forces = (model.reported_normal(P, contact) if hasattr(model, "reported_normal")
+              else np.maximum(Pe[:, :, 0], 0.0))
+    forces[~conv] = np.nan
+    return Solution(u=u, forces=forces, iterations=its, converged=conv,
                     contact=contact, tangential=Pe[:, :, 1:3].copy(),
-                    moments=Pe[:, :, 3:6].copy() if d == 6 else None)
+                    moments=Pe[:, :, 3:6].copy() if d == 6 else None, normal=Pe[:, :, 0].copy())
 
 
 class Solver:
@@ -524,7 +532,7 @@ class Solver:
 
     def displacement(self, wrench) -> np.ndarray:
         """Cuff displacement u (6,) [m, rad] for one wrench W (6,) [N, N*m] in the cuff frame."""
-        if getattr(self.model, "friction_coefficient", None) is not None:
+        if interface_mu(self.model) is not None:
             return self._friction_step(wrench)
         if self._direct:
             return self._direct_step(wrench)
@@ -592,7 +600,7 @@ class Solver:
         NaN everywhere if the solver did not converge (see ``last_converged``).
         """
         u = self.displacement(wrench)
-        if getattr(self.model, "friction_coefficient", None) is not None:
+        if interface_mu(self.model) is not None:
             return self._q.copy()
         if self._f_nl is not None:
             f = self._f_nl[0].copy()

@@ -38,10 +38,11 @@ from .common import cuff_wrench, model_from_config
 from ..io.memory_budget import plan_stream
 from .plotting import MaxPool
 from .no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, NoAnswerTally, no_equilibrium_extras
+from .shear_extras import element_loads, has_patch_moments, shear_columns, shear_extras
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
-           "shear_columns", "per_sample_extras", "LogRun", "open_log_run"]
+           "shear_columns", "per_sample_extras", "LogRun", "open_log_run", "element_loads"]
 
 #: extra per-sample columns of the forces table, after the element labels, with their types
 #: (docs/model.md section 7): counts, kPa, an element label, a ratio, a count, a flag
@@ -260,44 +261,6 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                             pain_ratio=extras["peak_pressure_to_pain_threshold"], extras=extras)
 
 
-def shear_columns(labels, moments: bool = False) -> tuple:
-    """Names of the opt-in shear columns (``--shear``): two per element [N] and, for patches
-    that carry moments (``moments``, the coupled arm), three per patch [N*m] after them."""
-    names = tuple(f"{lab}_shear_{part}_N" for lab in labels
-                  for part in ("axial", "circumferential"))
-    if moments:
-        names += tuple(f"{lab}_moment_{part}_Nm" for lab in labels
-                       for part in ("normal", "axial", "circumferential"))
-    return names
-
-
-def has_patch_moments(model) -> bool:
-    """Whether the model's patches carry moments (the coupled arm's 6-dof patches)."""
-    return getattr(model, "dofs", 3) == 6
-
-
-def _shear_extras(model, sol) -> dict:
-    """Tangential force on the arm of every element [N] (axial, circumferential) and, for
-    6-dof patches, each patch's moment on the skin about its centre [N*m] (local axes:
-    normal, axial, circumferential); NaN where the sample did not converge."""
-    moments = has_patch_moments(model)
-    if sol.tangential is not None:   # friction: the path's own tangential forces
-        s = np.array(np.atleast_3d(sol.tangential), dtype=float)
-        if moments:
-            s = np.concatenate([s, np.array(sol.moments, dtype=float).reshape(len(s), -1, 3)],
-                               axis=2)
-    elif moments:
-        s = np.array(model.patch_forces(sol.u, sol.contact)[..., 1:6], dtype=float)
-    else:
-        s = model.shear_components(sol.u, sol.contact)
-    if not sol.converged.all():
-        s[~sol.converged] = np.nan
-    s = np.concatenate([s[..., :2].reshape(len(s), -1), s[..., 2:].reshape(len(s), -1)],
-                       axis=1)
-    return {name: s[:, j] for j, name in
-            enumerate(shear_columns(model.labels, moments=moments))}
-
-
 class _Chunk:
     """One solved chunk: its solution, its (baseline-zeroed) forces and, on demand, its extras."""
 
@@ -315,7 +278,7 @@ class _Chunk:
             extras, idx = per_sample_extras(self.model, sol.forces, sol.contact, sol.iterations,
                                             sol.converged)
             if self.shear:
-                extras.update(_shear_extras(self.model, sol))
+                extras.update(shear_extras(self.model, sol))
             if self.wrench is not None and self.model.friction_coefficient is not None:
                 extras.update(no_equilibrium_extras(self.model, self.wrench, sol))
             self._extras = extras, idx

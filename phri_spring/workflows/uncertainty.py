@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..io.config import Config
+from ..physics.friction_form import interface_mu
 from ..physics.solver import FactorCache
 from ..reports.tissue_law_text import arm_law_text
 from ..reports.uncertainty_report import monte_carlo_summary_line
@@ -137,7 +138,7 @@ class MonteCarloStream:
     def _cache(self, d: int) -> FactorCache:
         """Draw d's cache: a fresh one per block, except with friction, where each draw
         runs the whole log as one loading path from the strap's state (docs/model.md 12.2)."""
-        if self.models[d].friction_coefficient is None:
+        if interface_mu(self.models[d]) is None:
             return FactorCache()
         if d not in self._paths:
             self._paths[d] = FactorCache(64)
