@@ -37,7 +37,7 @@ def test_the_matrix_is_the_product_of_the_registries():
     combos = cm.combinations()
     spring = [a for a in ARM_MODELS if a not in cm.CONTINUUM_ARMS]
     coupled = [a for a in ARM_MODELS if a in cm.CONTINUUM_ARMS]
-    per_arm = len(TISSUE_LAWS) * len(cm.INTERFACES) * len(cm.CUFFS)
+    per_arm = len(TISSUE_LAWS) * len(cm.INTERFACES) * len(cm.CUFFS) * len(cm.LIMBS)
     assert len(combos) == per_arm * (len(spring) + len(coupled) * len(CONTINUUM_LAWS)
                                      * len(cm.PATCH_GAPS))
     assert len(set(combos)) == len(combos)
@@ -52,7 +52,7 @@ def test_the_matrix_is_the_product_of_the_registries():
 def test_a_new_tissue_law_joins_the_matrix_by_itself(monkeypatch):
     before = len(cm.combinations())
     monkeypatch.setitem(TISSUE_LAWS, "another", TISSUE_LAWS["linear"])
-    per_law = len(cm.INTERFACES) * len(cm.CUFFS) * sum(
+    per_law = len(cm.INTERFACES) * len(cm.CUFFS) * len(cm.LIMBS) * sum(
         len(CONTINUUM_LAWS) * len(cm.PATCH_GAPS) if a in cm.CONTINUUM_ARMS else 1
         for a in ARM_MODELS)
     assert len(cm.combinations()) == before + per_law
@@ -93,6 +93,10 @@ def a_friction_run(tmp_path_factory):
     return comb, load_config(folder / "composition.yaml"), folder / "composition_forces.csv"
 
 
+#: the inward normal of element A1 of the composition's base config (a circle: theta 145 deg)
+_A1_NORMAL = -np.array([0.0, np.cos(np.radians(145.0)), np.sin(np.radians(145.0))])
+
+
 def _doctored(tmp_path, out, change):
     df = pd.read_csv(out)
     change(df)
@@ -110,10 +114,23 @@ def _negative(df):
 
 
 def _past_mu_n(df):
-    df["A2_shear_axial_N"] = df["A2_shear_axial_N"] + 0.6 * df["A2"] + 0.01
+    # a tangential force along the arm (+x: the meridian of the untapered base limb) past the
+    # cone, written consistently in the shear and the resultant columns
+    extra = 0.6 * df["A2"] + 0.01
+    df["A2_shear_axial_N"] = df["A2_shear_axial_N"] + extra
+    df["A2_force_x_N"] = df["A2_force_x_N"] + extra
 
 
 def _unbalanced(df):
+    # a normal force 1 % larger, written consistently in the label and resultant columns
+    cfg_normal = _A1_NORMAL
+    extra = df["A1"] * 0.01 + 0.01
+    df["A1"] = df["A1"] + extra
+    for c, n in zip("xyz", cfg_normal):
+        df[f"A1_force_{c}_N"] = df[f"A1_force_{c}_N"] + extra * n
+
+
+def _inconsistent(df):
     df["A1"] = df["A1"] * 1.01 + 0.01
 
 
@@ -125,6 +142,7 @@ def _unflagged(df):
 @pytest.mark.parametrize("change, needle", [(_negative, "negative normal force"),
                                             (_past_mu_n, "beyond mu N"),
                                             (_unbalanced, "out of balance"),
+                                            (_inconsistent, "disagree with"),
                                             (_unflagged, "not flagged")])
 def test_each_output_check_catches_a_broken_output(tmp_path, a_friction_run, change, needle):
     comb, cfg, out = a_friction_run

@@ -63,12 +63,12 @@ class _Geometry(_Strict):
     angles: _Angles
     #: the limb's section (docs/model.md section 13): circle, {ellipse: [a, b], rotation},
     #: {outline: [[y, z], ...]} or {per_row: [...]}; checked by geometry_sections
-    section: Optional[Union[str, dict]] = None
+    section: Optional[Union[str, dict]] = Field(default=None, json_schema_extra=_unit("m"))
     #: taper half-angle, positive when the limb narrows distally (docs/model.md section 13)
     taper_deg: float = Field(default=0.0, json_schema_extra=_unit("deg"))
     #: a 3D surface scan of the limb (docs/scans.md): {file, unit, origin, axis, y_axis,
     #: max_triangles, smoothing}; checked by io.scan, exclusive of radius, section and taper
-    scan: Optional[Any] = None
+    scan: Optional[Any] = Field(default=None, json_schema_extra=_unit("the scan's unit"))
 
     @field_validator("rows")
     @classmethod

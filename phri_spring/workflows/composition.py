@@ -35,7 +35,7 @@ import numpy as np
 from ..errors import PhriError
 
 __all__ = ["Combination", "Outcome", "combinations", "run_combination", "base_config",
-           "markdown_table", "CONTINUUM_ARMS", "INTERFACES", "CUFFS", "PATCH_GAPS",
+           "markdown_table", "CONTINUUM_ARMS", "INTERFACES", "CUFFS", "PATCH_GAPS", "LIMBS",
            "LOG_SAMPLES"]
 
 #: arms that read tissue.continuum: the continuum law and the patch gap are axes for these
@@ -44,6 +44,11 @@ CONTINUUM_ARMS = ("coupled",)
 INTERFACES = {"bonded": None, "mu 0.5": 0.5, "mu 0": 0.0}
 #: cuff name -> cuff.stiffness (None: the preset's compliant cuff)
 CUFFS = {"compliant": None, "rigid": math.inf}
+#: limb name -> geometry keys replacing geometry.radius (None: the preset's circle): an
+#: elliptic section of the preset's perimeter (axis ratio 0.8, turned) on a tapered limb
+LIMBS = {"circle": None,
+         "ellipse, taper": {"section": {"ellipse": [0.0502, 0.0402], "rotation": 15.0},
+                            "taper_deg": 5.0}}
 #: patch gap name -> tissue.continuum.patch_gap (None: the default)
 PATCH_GAPS = {"default": None, "0": 0.0}
 #: samples of the composition log
@@ -95,6 +100,7 @@ class Combination:
     cuff: str
     continuum_law: Optional[str] = None
     patch_gap: Optional[str] = None
+    limb: str = "circle"
 
     def config(self) -> dict:
         """The base config with this combination's keys set."""
@@ -116,11 +122,14 @@ class Combination:
             tissue["continuum"]["law"] = self.continuum_law
         if self.patch_gap is not None and PATCH_GAPS[self.patch_gap] is not None:
             tissue["continuum"]["patch_gap"] = PATCH_GAPS[self.patch_gap]
+        if LIMBS[self.limb] is not None:
+            del raw["geometry"]["radius"]
+            raw["geometry"].update(LIMBS[self.limb])
         return raw
 
     def cells(self) -> tuple:
         return (self.arm, self.tissue_law, self.continuum_law or "-", self.interface,
-                self.cuff, self.patch_gap or "-")
+                self.cuff, self.patch_gap or "-", self.limb)
 
 
 def _ours(obj) -> bool:
@@ -138,12 +147,12 @@ def combinations(package_only: bool = False) -> list:
     arms = [a for a, m in ARM_MODELS.items() if not package_only or _ours(m.build)]
     laws = [n for n, cls in TISSUE_LAWS.items() if not package_only or _ours(cls)]
     out = []
-    for arm, law, itf, cuff in itertools.product(arms, laws, INTERFACES, CUFFS):
+    for arm, law, itf, cuff, limb in itertools.product(arms, laws, INTERFACES, CUFFS, LIMBS):
         if arm not in CONTINUUM_ARMS:
-            out.append(Combination(arm, law, itf, cuff))
+            out.append(Combination(arm, law, itf, cuff, limb=limb))
             continue
         for cont, gap in itertools.product(CONTINUUM_LAWS, PATCH_GAPS):
-            out.append(Combination(arm, law, itf, cuff, cont, gap))
+            out.append(Combination(arm, law, itf, cuff, cont, gap, limb))
     return out
 
 
@@ -246,21 +255,49 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
     ax = df[[f"{lab}_shear_axial_N" for lab in labels]].to_numpy(float)
     ci = df[[f"{lab}_shear_circumferential_N" for lab in labels]].to_numpy(float)
     mu = INTERFACES[comb.interface]
-    if mu is not None:
-        T = np.hypot(ax, ci)[conv]
-        excess = T - mu * N[conv]
-        if (excess > _TOL_N + 1e-9 * np.abs(N[conv])).any():
-            return f"a tangential force beyond mu N by {excess.max():.3g} N"
     force_cols = [f"{lab}_force_{c}_N" for lab in labels for c in "xyz"]
+    if mu is not None:
+        T, Fn = np.hypot(ax, ci)[conv], N[conv]
+        if all(c in df.columns for c in force_cols):
+            # the cone holds the force along n_e (a coupled patch's label column is the
+            # FSR-like traction integral, not that force): split the resultant on n_e
+            f = df[force_cols].to_numpy(float).reshape(len(df), len(labels), 3)[conv]
+            nrm = cfg.geometry().normals
+            Fn = np.einsum("mei,ei->me", f, nrm)
+            T = np.linalg.norm(f - Fn[..., None] * nrm, axis=-1)
+        excess = T - mu * Fn
+        if (excess > _TOL_N + 1e-9 * np.abs(Fn)).any():
+            return f"a tangential force beyond mu N by {excess.max():.3g} N"
+    # released contact carries nothing: with friction, and on the linear coupled arm (its
+    # default releases what lifts off); the spring arms' bonded springs hold lifted elements
+    releases = mu is not None or (comb.arm in CONTINUUM_ARMS
+                                  and comb.continuum_law in (None, "linear"))
+    if releases and conv.any():
+        lifted = N[conv] <= _TOL_N
+        carried = np.hypot(ax, ci)[conv]
+        moment_cols = [c for c in df.columns if "_moment_" in c and c.endswith("_Nm")]
+        if moment_cols:
+            m = np.abs(df[moment_cols].to_numpy(float)[conv]).reshape(conv.sum(), len(labels), -1)
+            carried = carried + m.max(axis=2)
+        if (carried[lifted] > _TOL_N).any():
+            return (f"an element at 0 N normal force carries {carried[lifted].max():.3g} "
+                    "N (N*m) of tangential force or moment")
+    g = cfg.geometry()
+    point_springs = not any("_moment_" in c and c.endswith("_Nm") for c in df.columns)
+    if point_springs:
+        # point springs (no patch moments): the force on the arm is N n_e along the inward
+        # normal plus the shear along the skin's meridian and circumferential directions
+        rebuilt = (N[..., None] * g.normals + ax[..., None] * g.meridian
+                   + ci[..., None] * g.circumferential)
     if all(c in df.columns for c in force_cols):
         f = df[force_cols].to_numpy(float).reshape(len(df), len(labels), 3)
-    elif not any(c.endswith("_Nm") for c in df.columns):
-        # point springs (no patch moments): the force on the arm is N n_e along the inward
-        # normal plus the axial and circumferential shear along e_x and e_theta
-        g = cfg.geometry()
-        e_t = np.column_stack([np.zeros(g.n), -np.sin(g.theta), np.cos(g.theta)])
-        f = (N[..., None] * g.normals + ax[..., None] * np.array([1.0, 0.0, 0.0])
-             + ci[..., None] * e_t)
+        if point_springs and conv.any():
+            diff = np.abs(f - rebuilt)[conv].max()
+            if diff > _TOL_N + 1e-9 * np.abs(f[conv]).max():
+                return (f"the resultant force columns disagree with the normal and shear "
+                        f"columns by {diff:.3g} N")
+    elif point_springs:
+        f = rebuilt
     else:
         return None
     if conv.any():
@@ -270,14 +307,25 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
         gap = np.abs(f.sum(axis=1) - load).max(axis=1)[conv]
         if (gap > 1e-6 * (1.0 + np.abs(load[conv]).max())).any():
             return f"element forces out of balance with the load by {gap.max():.3g} N"
+        moment_cols = [f"{lab}_moment_{c}_Nm" for lab in labels for c in "xyz"]
+        if all(c in df.columns for c in force_cols):
+            # and the moments about the cuff origin: sum of p_e x f_e plus the patches' own
+            pts = cfg.geometry().points
+            M = np.cross(pts[None], f).sum(axis=1)
+            if all(c in df.columns for c in moment_cols):
+                M = M + df[moment_cols].to_numpy(float).reshape(len(df), len(labels), 3).sum(1)
+            pre = np.asarray(model_from_config(cfg, comb.arm).W_pre, float)[3:]
+            mgap = np.abs(M - W[:, 3:] - pre).max(axis=1)[conv]
+            if (mgap > 1e-6 * (0.1 + np.abs(W[conv, 3:] + pre).max())).any():
+                return f"element moments out of balance with the load by {mgap.max():.3g} N*m"
     return None
 
 
 def markdown_table(outcomes) -> str:
     """The docs' table: one row per combination, its outcome and, for a refusal, its key
     and line."""
-    head = ("| arm | tissue law | continuum law | interface | cuff | patch gap | outcome |\n"
-            "|---|---|---|---|---|---|---|\n")
+    head = ("| arm | tissue law | continuum law | interface | cuff | patch gap | limb | outcome |\n"
+            "|---|---|---|---|---|---|---|---|\n")
     rows = []
     for comb, oc in outcomes:
         what = ("runs (checked up to its reduced model)" if oc.partial else "runs") \
