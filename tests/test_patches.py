@@ -1,0 +1,149 @@
+"""Free element layouts: cuff.patches (docs/model.md section 14)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from conftest import harmony_dict, one_line, run_phri
+from phri_spring.errors import ConfigError, PhriError
+from phri_spring.io.config import config_from_dict
+from phri_spring.physics.patches import PatchLayout, check_layout, hoop_shares, mat_layout
+from phri_spring.physics.solver import solve
+from phri_spring.workflows.common import model_from_config
+
+
+def grid_as_patches(d: dict) -> dict:
+    """The same cuff with its grid written out as one patch per element."""
+    g = d["geometry"]
+    a = g.pop("angles")
+    width = a.get("width", a["step"])
+    w = g.pop("row_width")
+    rows = g["rows"]
+    patches = []
+    for i, (r, x) in enumerate(rows.items()):
+        wr = w[i] if isinstance(w, list) else w
+        for j in range(a["count"]):
+            patches.append({"label": f"{r}{j}", "x_m": x,
+                            "theta_deg": a["start"] + j * a["step"], "width_deg": width,
+                            "length_m": wr})
+    if not isinstance(g.get("radius"), list) and "per_row" not in str(g.get("section")):
+        g.pop("rows")
+    d["cuff"]["patches"] = patches
+    return d
+
+
+def label_mapping(value, labels, n_angles):
+    """A per_angle value written as a mapping by label (the forms a free layout accepts)."""
+    vals = value["per_angle"]
+    return {lab: vals[i % n_angles] for i, lab in enumerate(labels)}
+
+
+WRENCHES = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [3.0, -20.0, 5.0, 0.4, -0.3, 0.2],
+                     [-2.0, 10.0, -30.0, -0.5, 0.6, -0.1], [0.0, 60.0, 10.0, 0.0, 0.0, 1.0]])
+
+
+@pytest.mark.parametrize("variant", ["circle", "ellipse_taper", "per_row_radius", "handles"])
+def test_grid_as_patches_gives_the_grid(variant):
+    d = harmony_dict()
+    if variant == "ellipse_taper":
+        d["geometry"].pop("radius")
+        d["geometry"]["section"] = {"ellipse": [0.05, 0.04], "rotation": 20.0}
+        d["geometry"]["taper_deg"] = 4.0
+    elif variant == "per_row_radius":
+        d["geometry"]["radius"] = [0.047, 0.045, 0.042]
+    elif variant == "handles":
+        d["strap"] = {"tension": 15.0, "model": "handles"}
+    grid = config_from_dict(d)
+    p = grid_as_patches(harmony_dict() if variant == "circle" else d)
+    p["cuff"]["stiffness"] = label_mapping(grid.raw["cuff"]["stiffness"], grid.labels, 7)
+    free = config_from_dict(p)
+    assert free.labels == grid.labels
+    for arm in ("compliant", "rigid"):
+        mg, mf = model_from_config(grid, arm), model_from_config(free, arm)
+        np.testing.assert_allclose(mf.geometry.points, mg.geometry.points, atol=1e-15)
+        np.testing.assert_allclose(mf.geometry.areas, mg.geometry.areas, rtol=1e-12)
+        np.testing.assert_allclose(mf.f0, mg.f0, rtol=1e-12, atol=1e-12)
+        sg, sf = solve(mg, WRENCHES), solve(mf, WRENCHES)
+        np.testing.assert_allclose(sf.forces, sg.forces, rtol=1e-9, atol=1e-9)
+        assert sf.converged.all()
+
+
+def mat_dict(rows=6, columns=6, tension=15.0) -> dict:
+    d = harmony_dict()
+    g = d["geometry"]
+    for k in ("rows", "angles", "row_width"):
+        g.pop(k)
+    d["cuff"] = {"stiffness": 2.0e5,
+                 "patches": {"mat": {"rows": rows, "columns": columns, "pitch_axial_m": 0.01,
+                                     "pitch_deg": 360.0 / columns, "x0_m": -0.005 * (rows - 1),
+                                     "theta0_deg": 0.0}}}
+    d["strap"]["tension"] = tension
+    return d
+
+
+def test_mat_labels_and_hoop_preload_sum():
+    cfg = config_from_dict(mat_dict(3, 4))
+    assert cfg.labels[:5] == ("R01C01", "R01C02", "R01C03", "R01C04", "R02C01")
+    model = model_from_config(cfg)
+    # Laplace: a band of tension T around a full turn presses with T * 2 pi in total
+    assert math.isclose(model.f0.sum(), 15.0 * 2 * math.pi, rel_tol=1e-12)
+    # a closed ring of equal cells: the preload's wrench cancels
+    np.testing.assert_allclose(model.W_pre, 0.0, atol=1e-12)
+
+
+def test_mat_on_a_circle_under_a_radial_push_is_symmetric():
+    """A full ring of 8 columns at 0, 45, ... deg pushed along +y: the forces are mirror
+    symmetric about the y axis (theta -> -theta) and equal across the mat's rows."""
+    cfg = config_from_dict(mat_dict(4, 8))
+    sol = solve(model_from_config(cfg), np.array([0.0, 25.0, 0.0, 0.0, 0.0, 0.0]))
+    f = np.reshape(sol.forces, (4, 8))
+    mirror = (-np.arange(8)) % 8
+    np.testing.assert_allclose(f, f[:, mirror], rtol=1e-9, atol=1e-9)
+    # rows at x = -0.015, -0.005, 0.005, 0.015 about the origin where the push acts:
+    # mirror symmetric in x too
+    np.testing.assert_allclose(f[0], f[3], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(f[1], f[2], rtol=1e-9, atol=1e-9)
+    # pushing the cuff toward +y presses its -y side (theta = 180 deg) into the arm
+    assert f[:, 4].min() > f[:, 0].max()
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.lists(st.floats(-60.0, 60.0), min_size=6, max_size=6))
+def test_balance_of_forces_with_shear(w):
+    """Normal plus shear forces on the arm add up to the applied wrench (equilibrium)."""
+    cfg = config_from_dict(mat_dict(3, 6))
+    model = model_from_config(cfg)
+    W = np.array(w) * np.array([1, 1, 1, 0.02, 0.02, 0.02])
+    sol = solve(model, W)
+    g = model.geometry
+    u = np.reshape(sol.u, 6)
+    normal = np.reshape(sol.forces, -1)[:, None] * g.normals
+    shear = np.reshape(model.shear_forces(u), (-1, 3))
+    tot = normal + shear
+    F = tot.sum(axis=0)
+    M = np.cross(g.points, tot).sum(axis=0)
+    np.testing.assert_allclose(np.r_[F, M], W, atol=1e-8 * (1 + np.abs(W).max()))
+
+
+def test_hoop_shares_closed_form():
+    # two staggered bands [0, 2] and [1, 3] plus a separate [5, 6]: union 4
+    np.testing.assert_allclose(hoop_shares([1.0, 2.0, 5.5], [2.0, 2.0, 1.0]),
+                               [0.5, 0.5, 0.25])
+
+
+def test_overlap_is_refused_and_touching_allowed():
+    touch = PatchLayout(("a", "b"), np.array([0.0, 0.02]), np.radians([0.0, 0.0]),
+                        np.radians([30.0, 30.0]), np.array([0.02, 0.02]))
+    check_layout(touch)
+    over = PatchLayout(("a", "b"), np.array([0.0, 0.01]), np.radians([350.0, 10.0]),
+                       np.radians([30.0, 30.0]), np.array([0.02, 0.02]))
+    with pytest.raises(ValueError, match="overlap"):
+        check_layout(over)
+    m = mat_layout(2, 3, 0.01, 20.0, 0.0, 0.0)
+    check_layout(m)
