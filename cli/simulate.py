@@ -132,7 +132,7 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
 
         write_simulate_plot(pool.result(), plot, labels=summary.labels,
                             pain_threshold_kpa=config.pain_threshold_kpa,
-                            title=f"{Path(log).name}: {arm} arm")
+                            title=f"{Path(log).name}: {arm} arm", layout=config.patches)
     if summary.not_converged:
         why = ("; with friction a load that friction and the strap cannot hold has no "
                "equilibrium (the cuff would slide along, twist around or come off the arm)"
