@@ -147,3 +147,100 @@ def test_overlap_is_refused_and_touching_allowed():
         check_layout(over)
     m = mat_layout(2, 3, 0.01, 20.0, 0.0, 0.0)
     check_layout(m)
+
+
+# --------------------------------------------------------------------------- commands
+def write_config(tmp_path, d, name="cfg.yaml"):
+    p = tmp_path / name
+    p.write_text(yaml.safe_dump(d, sort_keys=False))
+    return p
+
+
+def free_dict() -> dict:
+    """Five FSRs where a lower-limb shell allows: not a grid."""
+    d = harmony_dict()
+    for k in ("rows", "angles", "row_width"):
+        d["geometry"].pop(k)
+    d["load_cell"]["position"] = [0.0, 0.0, 0.0]
+    d["cuff"] = {"stiffness": {"F1": 2e5, "F2": 2e5, "F3": 1e5, "F4": 3e5, "F5": 2e5},
+                 "patches": [
+                     {"label": "F1", "x_m": -0.02, "theta_deg": 80.0, "width_deg": 30.0,
+                      "length_m": 0.02},
+                     {"label": "F2", "x_m": 0.01, "theta_deg": 150.0, "width_deg": 40.0,
+                      "length_m": 0.03},
+                     {"label": "F3", "x_m": -0.015, "theta_deg": 200.0, "width_deg": 25.0,
+                      "length_m": 0.015},
+                     {"label": "F4", "x_m": 0.02, "theta_deg": 260.0, "width_deg": 35.0,
+                      "length_m": 0.02},
+                     {"label": "F5", "x_m": 0.0, "theta_deg": 330.0, "width_deg": 30.0,
+                      "length_m": 0.025}]}
+    return d
+
+
+def test_compare_with_a_free_layout(tmp_path):
+    """compare reads the measured columns by label and draws the unrolled surface; its RMSE
+    is Eq. 1 recomputed here from the model's forces at each condition's mean wrench."""
+    cfg_path = write_config(tmp_path, free_dict())
+    cfg = config_from_dict(free_dict())
+    model = model_from_config(cfg, "compliant")
+    W = {"no_load": np.zeros(6), "L1": np.array([0.0, -30.0, 5.0, 0.2, 0.0, 0.1])}
+    meas = {"no_load": np.array([1.0, 2.0, 1.5, 2.5, 1.0]),
+            "L1": np.array([4.0, 1.0, 1.0, 2.0, 6.0])}
+    rows = []
+    for t, c in enumerate(["no_load"] * 3 + ["L1"] * 3):
+        rows.append([t * 0.1, *W[c], *meas[c], c])
+    import pandas as pd
+
+    cols = ["time", "Fx", "Fy", "Fz", "Mx", "My", "Mz", *cfg.labels, "condition"]
+    pd.DataFrame(rows, columns=cols).to_csv(tmp_path / "t1.csv", index=False)
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump({"baseline": "no_load", "trials": [
+        {"file": "t1.csv", "experiment": "E", "direction": "down", "trial": 1}]}))
+    r = run_phri("compare", cfg_path, tmp_path / "m.yaml", "-o", tmp_path / "out",
+                 "--arms", "rigid,compliant")
+    assert r.exit_code == 0, r.output
+    rmse = pd.read_csv(tmp_path / "out" / "rmse.csv")
+    sim = np.reshape(solve(model, np.stack([W["no_load"], W["L1"]])).forces, (2, 5))
+    want = math.sqrt(np.mean(((meas["L1"] - meas["no_load"]) - (sim[1] - sim[0])) ** 2))
+    got = rmse.loc[(rmse.arm == "compliant") & (rmse.condition == "L1"), "rmse_N"].item()
+    assert math.isclose(got, want, rel_tol=1e-6)
+    assert list((tmp_path / "out" / "heatmaps").glob("*.png"))
+
+
+def test_free_layout_figures_draw_one_rectangle_per_patch():
+    from matplotlib.collections import PatchCollection
+
+    from phri_spring.reports.layout_figures import layout_compare_figure, layout_figure
+
+    lay = config_from_dict(free_dict()).patches
+    arrays = (lay.x, lay.theta, lay.width, lay.length)
+    fig = layout_compare_figure(*arrays, np.arange(5.0), {"rigid": np.ones(5),
+                                                          "compliant": -np.ones(5)},
+                                labels=lay.labels, rmse={"rigid": 1.0, "compliant": 2.0})
+    colls = [c for ax in fig.axes for c in ax.collections if isinstance(c, PatchCollection)]
+    assert len(colls) == 3 and all(len(c.get_paths()) == 5 for c in colls)
+    assert colls[0].get_clim() == (-4.0, 4.0)     # one symmetric scale for every panel
+    np.testing.assert_allclose(colls[0].get_array(), np.arange(5.0))
+    # F3 at 200 deg, 25 deg wide, x = -15 mm, 15 mm long: its rectangle in (deg, mm)
+    ext = colls[0].get_paths()[2].get_extents(colls[0].get_transforms()[0]
+                                               if len(colls[0].get_transforms()) else None)
+    assert math.isclose(ext.x0 % 360, 187.5, abs_tol=1e-9)
+    assert math.isclose(ext.y0, -22.5, abs_tol=1e-9) and math.isclose(ext.height, 15.0)
+    fig1 = layout_figure(*arrays, np.arange(5.0), labels=lay.labels)
+    assert any(isinstance(c, PatchCollection) for c in fig1.axes[0].collections)
+    assert [t.get_text() for t in fig1.axes[0].texts] == list(lay.labels)
+
+
+def test_simulate_plot_of_a_free_layout(tmp_path):
+    from phri_spring.reports.simulate_figures import simulate_figure
+    from phri_spring.workflows.plotting import MaxPool
+
+    lay = config_from_dict(free_dict()).patches
+    pool = MaxPool(5, total=4)
+    pool(np.arange(4.0), np.arange(20.0).reshape(4, 5), np.ones(4))
+    fig = simulate_figure(pool.result(), labels=lay.labels, pain_threshold_kpa=120.0,
+                          layout=(lay.x, lay.theta, lay.width, lay.length))
+    from matplotlib.collections import PatchCollection
+
+    colls = [c for ax in fig.axes for c in ax.collections if isinstance(c, PatchCollection)]
+    assert len(colls) == 1
+    np.testing.assert_allclose(colls[0].get_array(), [15.0, 16.0, 17.0, 18.0, 19.0])

@@ -40,10 +40,12 @@ def draw_unrolled(ax, x, theta, width, length, values, *, cmap="viridis", vmin=N
     wd = np.degrees(np.asarray(width, float))
     xm, lm = 1000.0 * np.asarray(x, float), 1000.0 * np.asarray(length, float)
     rects = [Rectangle((t - w / 2, a - b / 2), w, b) for t, w, a, b in zip(th, wd, xm, lm)]
-    coll = PatchCollection(rects, cmap=cmap, edgecolor="0.3", linewidth=0.4)
+    import matplotlib
+
+    cm = (matplotlib.colormaps[cmap] if isinstance(cmap, str) else cmap).with_extremes(bad="0.85")
+    coll = PatchCollection(rects, cmap=cm, edgecolor="0.3", linewidth=0.4)
     coll.set_array(np.ma.masked_invalid(np.asarray(values, float)))
     coll.set_clim(vmin, vmax)
-    coll.cmap.set_bad("0.85")
     ax.add_collection(coll)
     ax.set_xlim(float(np.min(th - wd / 2)), float(np.max(th + wd / 2)))
     ax.set_ylim(float(np.max(xm + lm / 2)), float(np.min(xm - lm / 2)))   # proximal on top
