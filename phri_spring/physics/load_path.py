@@ -50,6 +50,23 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
     elif tangential is not None:
         ft = np.asarray(tangential, dtype=float)
         fn = np.asarray(normal, dtype=float)
+    elif hasattr(model, "shear_maps"):
+        # bonded shear springs are linear in u (s_e = T_e u, already tangential): sum the
+        # maps over the contact set first, one matrix product for the whole chunk, instead
+        # of forming every element's force vector
+        T = model.shear_maps()
+        n = T.shape[0]
+        Sf = S.astype(float)
+        if getattr(model, "is_linear", False):
+            # the normal force of a linear element in contact is linear in u too
+            M = (Sf @ model.contact_force_maps().reshape(n, 42)).reshape(-1, 6, 7)
+            both = np.einsum("mij,mj->mi", M[:, :, :6], u) + M[:, :, 6]
+            normal, touch = both[:, :3], both[:, 3:]
+        else:
+            touch = np.einsum("mij,mj->mi", (Sf @ T.reshape(n, 18)).reshape(-1, 3, 6), u)
+            normal = np.where(S, normal_forces(model, u), 0.0) @ normals
+        lifted = u @ T.sum(axis=0).T - touch
+        return np.stack([normal, touch, lifted], axis=1)
     else:
         ft = model.shear_components(u, S)
         fn = normal_forces(model, u)

@@ -45,6 +45,11 @@ __all__ = ["Solution", "solve", "solve_segments", "solve_per_sample", "Solver", 
 _BLOCK_ENTRIES = 1 << 21
 #: a cuff displacement beyond this [m, rad] is no answer (an absurd input: forces overflow)
 _HUGE = 1e100
+#: the 21 upper-triangle entries of a symmetric 6x6 (row-major flat indices), and for each
+#: of the 36 entries its place among them
+_UPPER = np.array([6 * i + j for i in range(6) for j in range(i, 6)])
+_SYM_FULL = np.array([[list(_UPPER).index(6 * min(i, j) + max(i, j)) for j in range(6)]
+                      for i in range(6)]).ravel()
 # --------------------------------------------------------------------------- the spring system
 def _exact_step(k, g, h, a0, q) -> float:
     """Exact minimiser alpha >= 0 of Pi(u + alpha d).
@@ -115,20 +120,25 @@ class SpringSystem(ContactSystem):
             Mt, c = self.factors(keys[0], S[0])
             u = r + c
             return u @ Mt
-        unique = np.unique(keys, return_inverse=True)
-        G = len(unique[0])
+        uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        G = len(uniq)
         if G <= 4 or 20 * G <= m:
             out = np.empty((m, 6))
-            for key, idx in key_groups(keys, unique):
+            for key, idx in key_groups(keys, (uniq, inv)):
                 Mt, c = self.factors(key, S[idx[0]])
                 out[idx] = (r[idx] + c) @ Mt
             return out
-        # many distinct sets: assemble and solve every 6x6 system at once
+        # many distinct sets: assemble each distinct set's H_S and c_S once (rows with one
+        # key share one set, as in the groups above), then solve every row's 6x6 at once
         model = self.model
-        kS = S * model.k
-        Hf = model.bb.T @ kS.T
+        A = self.__dict__.get("_bb_d0")
+        if A is None:   # H_S is symmetric: its 21 upper entries, then c_S's 6
+            A = self._bb_d0 = np.hstack([model.bb[:, _UPPER], model.delta0_b])   # (n, 27)
+        HC = (S[first] * model.k) @ A                                            # (G, 27)
+        per_row = HC[inv]
+        Hf = np.ascontiguousarray(per_row[:, _SYM_FULL].T)
         Hf += model.K_s.reshape(36, 1)
-        rhs = r - kS @ model.delta0_b
+        rhs = r - per_row[:, 21:]
         return _spd_solve_batched(Hf, rhs)
 
     def indicator(self, u, S=None, keys=None, out=None):
