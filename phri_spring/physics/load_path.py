@@ -34,8 +34,9 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
         Their contact sets.
     normal, tangential : ndarray, shape (m, n) and (m, n, 2), optional
         The normal and tangential forces (axial, circumferential) [N] when the solution
-        carries them (friction: ``Solution.forces``, ``Solution.tangential``); otherwise
-        they are recomputed from u (bonded).
+        carries them (``Solution.forces``; with friction ``Solution.tangential``);
+        otherwise they are recomputed from u (bonded). The coupled model's own patch
+        forces are used in any case.
     """
     u = np.atleast_2d(np.asarray(u, dtype=float))
     S = np.atleast_2d(np.asarray(contact, dtype=bool))
@@ -50,23 +51,21 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
     elif tangential is not None:
         ft = np.asarray(tangential, dtype=float)
         fn = np.asarray(normal, dtype=float)
-    elif hasattr(model, "shear_maps"):
-        # bonded shear springs are linear in u (s_e = T_e u, already tangential): sum the
-        # maps over the contact set first, one matrix product for the whole chunk, instead
-        # of forming every element's force vector
-        T = model.shear_maps()
-        n = T.shape[0]
-        Sf = S.astype(float)
-        if getattr(model, "is_linear", False):
-            # the normal force of a linear element in contact is linear in u too
-            M = (Sf @ model.contact_force_maps().reshape(n, 42)).reshape(-1, 6, 7)
-            both = np.einsum("mij,mj->mi", M[:, :, :6], u) + M[:, :, 6]
-            normal, touch = both[:, :3], both[:, 3:]
-        else:
-            touch = np.einsum("mij,mj->mi", (Sf @ T.reshape(n, 18)).reshape(-1, 3, 6), u)
-            normal = np.where(S, normal_forces(model, u), 0.0) @ normals
-        lifted = u @ T.sum(axis=0).T - touch
-        return np.stack([normal, touch, lifted], axis=1)
+    elif hasattr(model, "k_shear") and getattr(model, "friction_coefficient", None) is None:
+        # bonded shear springs: s_e = k_s,e (d_e - (n_e . d_e) n_e) with d_e = t + w x p_e
+        # and n_e . d_e = b_e . u, so sums over any set of elements need only per-element
+        # scalars: no (samples, elements, 3) arrays
+        k_s, p = model.k_shear, g.points
+        fn = normal_forces(model, u) if normal is None else np.array(normal, dtype=float)
+        fn[~S] = 0.0
+        t, w = u[:, :3], u[:, 3:]
+        W = S * k_s                                             # (m, n)
+        touch = W.sum(axis=1)[:, None] * t + np.cross(w, W @ p)
+        W *= u @ g.b.T                                          # k_s,e (b_e . u) on S
+        touch -= W @ normals
+        # every element's: linear in u, sum_e k_s,e (b_e . u) n_e = u @ sum_e k_s,e b_e n_e^T
+        total = k_s.sum() * t + np.cross(w, k_s @ p) - u @ ((g.b * k_s[:, None]).T @ normals)
+        return np.stack([fn @ normals, touch, total - touch], axis=1)
     else:
         ft = model.shear_components(u, S)
         fn = normal_forces(model, u)

@@ -196,35 +196,6 @@ class SpringModel(OnGeometry):
         dn = np.sum(d * g.normals, axis=-1, keepdims=True)
         return self.k_shear[:, None] * (d - dn * g.normals)
 
-    def shear_maps(self) -> np.ndarray:
-        """T_e = k_s,e (I3 - n_e n_e^T) B_e, shape (n, 3, 6): the bonded shear force on the
-        arm of every element is linear in u, s_e = T_e u (cached)."""
-        cached = self.__dict__.get("_shear_maps")
-        if cached is None:
-            g = self.geometry
-            P = np.eye(3) - g.normals[:, :, None] * g.normals[:, None, :]
-            cached = self.k_shear[:, None, None] * (P @ element_jacobians(g.points))
-            object.__setattr__(self, "_shear_maps", cached)
-        return cached
-
-    def contact_force_maps(self) -> np.ndarray:
-        """Linear elements: the net force maps of an element in contact, shape (n, 6, 7):
-        rows 0-2 the normal force k_e (delta0_e + b_e . u) n_e, rows 3-5 the bonded shear
-        force T_e u, as matrices acting on (u, 1) (cached). Summed over a contact set they
-        give that set's forces for any u in one product."""
-        cached = self.__dict__.get("_contact_force_maps")
-        if cached is None:
-            g = self.geometry
-            n = self.n
-            M = np.zeros((n, 6, 7))
-            kn = self.k[:, None] * g.normals
-            M[:, :3, :6] = kn[:, :, None] * self.b[:, None, :]
-            M[:, :3, 6] = kn * self.delta0[:, None]
-            M[:, 3:, :6] = self.shear_maps()
-            cached = M
-            object.__setattr__(self, "_contact_force_maps", cached)
-        return cached
-
     def shear_components(self, u, contact=None) -> np.ndarray:
         """Shear force on the arm, (m, n, 2) [N]: along the skin's meridian a_e (+x on an
         untapered limb) and along c_e (increasing angle), the geometry's

@@ -552,8 +552,7 @@ class SummaryAccumulator:
         if not ok.any():
             return
         tang = None if sol.tangential is None else sol.tangential[ok]
-        parts = force_parts(model, sol.u[ok], sol.contact[ok],
-                            normal=sol.forces[ok] if tang is not None else None,
+        parts = force_parts(model, sol.u[ok], sol.contact[ok], normal=sol.forces[ok],
                             tangential=tang)
         proj, mag2 = share_sums(parts)
         self._proj += proj
