@@ -52,20 +52,7 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
         ft = np.asarray(tangential, dtype=float)
         fn = np.asarray(normal, dtype=float)
     elif hasattr(model, "k_shear") and getattr(model, "friction_coefficient", None) is None:
-        # bonded shear springs: s_e = k_s,e (d_e - (n_e . d_e) n_e) with d_e = t + w x p_e
-        # and n_e . d_e = b_e . u, so sums over any set of elements need only per-element
-        # scalars: no (samples, elements, 3) arrays
-        k_s, p = model.k_shear, g.points
-        fn = normal_forces(model, u) if normal is None else np.array(normal, dtype=float)
-        fn[~S] = 0.0
-        t, w = u[:, :3], u[:, 3:]
-        W = S * k_s                                             # (m, n)
-        touch = W.sum(axis=1)[:, None] * t + np.cross(w, W @ p)
-        W *= u @ g.b.T                                          # k_s,e (b_e . u) on S
-        touch -= W @ normals
-        # every element's: linear in u, sum_e k_s,e (b_e . u) n_e = u @ sum_e k_s,e b_e n_e^T
-        total = k_s.sum() * t + np.cross(w, k_s @ p) - u @ ((g.b * k_s[:, None]).T @ normals)
-        return np.stack([fn @ normals, touch, total - touch], axis=1)
+        return _bonded_parts(model, u, S, normal)
     else:
         ft = model.shear_components(u, S)
         fn = normal_forces(model, u)
@@ -75,6 +62,32 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
     touch = np.einsum("me,mei->mi", S.astype(float), vec_t)
     lifted = np.einsum("me,mei->mi", (~S).astype(float), vec_t)
     return np.stack([normal, touch, lifted], axis=1)
+
+
+def _bonded_parts(model, u, S, normal, block: int = 2048) -> np.ndarray:
+    """:func:`force_parts` of the bonded spring model, a block of samples at a time.
+
+    s_e = k_s,e (d_e - (n_e . d_e) n_e) with d_e = t + w x p_e and n_e . d_e = b_e . u: a
+    sum of shear forces over any set of elements needs per-element scalars only, never
+    (samples, elements, 3) arrays; blocks keep the (samples, elements) ones small.
+    """
+    g = model.geometry
+    k_s, p, normals = model.k_shear, g.points, g.normals
+    t, w = u[:, :3], u[:, 3:]
+    # every element's sum is linear in u: sum_e k_s,e (b_e . u) n_e = u @ sum_e k_s,e b_e n_e^T
+    total = k_s.sum() * t + np.cross(w, k_s @ p) - u @ ((g.b * k_s[:, None]).T @ normals)
+    normal_part, touch = np.empty((len(u), 3)), np.empty((len(u), 3))
+    for i in range(0, len(u), block):
+        sl = slice(i, i + block)
+        Sb = S[sl]
+        fn = normal_forces(model, u[sl]) if normal is None else np.array(normal[sl], float)
+        fn[~Sb] = 0.0
+        normal_part[sl] = fn @ normals
+        W = Sb * k_s
+        touch[sl] = W.sum(axis=1)[:, None] * t[sl] + np.cross(w[sl], W @ p)
+        W *= u[sl] @ g.b.T                                      # k_s,e (b_e . u) on S
+        touch[sl] -= W @ normals
+    return np.stack([normal_part, touch, total - touch], axis=1)
 
 
 def share_sums(parts: np.ndarray):
