@@ -244,3 +244,109 @@ def test_simulate_plot_of_a_free_layout(tmp_path):
     colls = [c for ax in fig.axes for c in ax.collections if isinstance(c, PatchCollection)]
     assert len(colls) == 1
     np.testing.assert_allclose(colls[0].get_array(), [15.0, 16.0, 17.0, 18.0, 19.0])
+
+
+# --------------------------------------------------------------------------- config errors
+def _mutated(f):
+    d = free_dict()
+    f(d)
+    return d
+
+
+BAD = [
+    (lambda d: d["cuff"]["patches"][1].update(label="F1"), "cuff.patches", "twice"),
+    (lambda d: d["cuff"]["patches"][1].update(theta_deg=90.0, x_m=-0.02), "cuff.patches",
+     "overlap"),
+    (lambda d: d["cuff"]["patches"][0].update(width_deg=-3), "cuff.patches[0].width_deg",
+     "positive"),
+    (lambda d: d["cuff"]["patches"][0].pop("length_m"), "cuff.patches[0].length_m", "missing"),
+    (lambda d: d["cuff"]["patches"][0].update(lenght_m=0.1), "cuff.patches[0].lenght_m",
+     "did you mean"),
+    (lambda d: d["cuff"].update(patches=3), "cuff.patches", "expected"),
+    (lambda d: d["cuff"].update(patches={"mat": {"rows": 2}}), "cuff.patches.mat.columns",
+     "missing"),
+    (lambda d: d["cuff"].update(patches={"mat": {"rows": 2, "columns": 40, "pitch_axial_m": 0.01,
+                                                 "pitch_deg": 10, "x0_m": 0,
+                                                 "theta0_deg": 0}}),
+     "cuff.patches.mat.pitch_deg", "360"),
+    (lambda d: d["cuff"].update(stiffness={"per_angle": [1e5] * 5}), "cuff.stiffness",
+     "rows and angles"),
+    (lambda d: d["tissue"].update(stiffness=[[4e3] * 5]), "tissue.stiffness",
+     "rows and angles"),
+    (lambda d: d["geometry"].update(angles={"start": 0, "step": 30, "count": 3}),
+     "geometry.angles", "cuff.patches"),
+    (lambda d: d["geometry"].update(row_width=0.02), "geometry.row_width", "cuff.patches"),
+    # every patch on one line through the axis: nothing holds the cuff's rotation about it
+    (lambda d: d["cuff"].update(stiffness=1e5, patches=[
+        {"label": "P", "x_m": -0.02, "theta_deg": 0.0, "width_deg": 0.5, "length_m": 0.01},
+        {"label": "Q", "x_m": 0.02, "theta_deg": 0.0, "width_deg": 0.5, "length_m": 0.01}]),
+     "cuff.patches", "singular"),
+]
+
+
+@pytest.mark.parametrize("mutate, key, fragment", BAD)
+def test_config_errors_are_one_line_naming_the_key(tmp_path, mutate, key, fragment):
+    from conftest import stderr_of
+
+    p = write_config(tmp_path, _mutated(mutate))
+    log = tmp_path / "log.csv"
+    log.write_text("time,Fx,Fy,Fz,Mx,My,Mz\n0,1,2,3,0,0,0\n")
+    r = run_phri("simulate", p, log, "-o", tmp_path / "out.csv")
+    err = stderr_of(r)
+    assert r.exit_code == 1, err
+    assert one_line(err) and key in err and fragment in err, err
+    assert not (tmp_path / "out.csv").exists()
+
+
+def test_patch_csv_relative_to_the_config(tmp_path):
+    d = free_dict()
+    rows = ["label,x_m,theta_deg,width_deg,length_m"] + [
+        f"{q['label']},{q['x_m']},{q['theta_deg']},{q['width_deg']},{q['length_m']}"
+        for q in d["cuff"]["patches"]]
+    (tmp_path / "sub").mkdir()
+    (tmp_path / "sub" / "fsr.csv").write_text("\n".join(rows) + "\n")
+    d["cuff"]["patches"] = "fsr.csv"
+    p = write_config(tmp_path / "sub", d)
+    from phri_spring.io.config import load_config
+
+    a, b = load_config(p), config_from_dict(free_dict())
+    assert a.labels == b.labels
+    np.testing.assert_allclose(a.geometry().points, b.geometry().points, atol=1e-15)
+    (tmp_path / "sub" / "fsr.csv").write_text("label,x_m,theta_deg,width_deg\nF1,0,0,10\n")
+    with pytest.raises(PhriError, match="length_m"):
+        load_config(p)
+
+
+def test_coupled_arm_refuses_a_free_layout(tmp_path):
+    from conftest import stderr_of
+
+    d = free_dict()
+    d["tissue"]["continuum"] = {"thickness": 0.02}
+    p = write_config(tmp_path, d)
+    log = tmp_path / "log.csv"
+    log.write_text("time,Fx,Fy,Fz,Mx,My,Mz\n0,1,2,3,0,0,0\n")
+    r = run_phri("simulate", p, log, "-o", tmp_path / "o.csv", "--arm", "coupled")
+    assert r.exit_code == 1 and one_line(stderr_of(r)) and "cuff.patches" in stderr_of(r)
+
+
+@pytest.mark.parametrize("which", ["mat", "grid"])
+def test_load_path_split_equals_the_per_element_sum(which):
+    """force_parts' bonded path (per-element scalars, in blocks) against the plain sum of
+    every element's normal and shear force vectors."""
+    from phri_spring.physics.load_path import force_parts
+    from phri_spring.physics.solver import normal_forces
+
+    cfg = config_from_dict(mat_dict(4, 8) if which == "mat" else harmony_dict())
+    model = model_from_config(cfg)
+    W = np.random.default_rng(3).normal(size=(3000, 6)) * [20, 20, 20, 1, 1, 1]
+    sol = solve(model, W)
+    g, S = model.geometry, sol.contact
+    fn = np.where(S, normal_forces(model, sol.u), 0.0)
+    s = model.shear_forces(sol.u)                        # (m, n, 3), every element
+    want = np.stack([np.einsum("me,ei->mi", fn, g.normals),
+                     np.einsum("me,mei->mi", S * 1.0, s),
+                     np.einsum("me,mei->mi", (~S) * 1.0, s)], axis=1)
+    got = force_parts(model, sol.u, S, normal=sol.forces)
+    np.testing.assert_allclose(got, want, atol=1e-9 * np.abs(want).max())
+    np.testing.assert_allclose(force_parts(model, sol.u, S), want,
+                               atol=1e-9 * np.abs(want).max())

@@ -148,7 +148,7 @@ class _Cuff(_Strict):
     stiffness: _StiffnessValue = Field(json_schema_extra=_unit("N/m"))
     #: sensor patches anywhere (docs/model.md section 14): a list, a CSV path or {mat: ...};
     #: checked by io/config_patches.py
-    patches: Optional[Union[str, list, dict]] = None
+    patches: Any = None
 
     _stiffness_not_bool = field_validator("stiffness", mode="before")(_not_a_bool)
 

@@ -138,6 +138,8 @@ def _spring_model(cfg: Config, arm: str):
                            friction_coefficient=cfg.friction_coefficient)
     except ModelInputError as exc:
         key = _QUANTITY_KEYS.get(exc.quantity) if exc.quantity != "stiffness" else None
+        if exc.quantity == "geometry" and cfg.patches is not None:
+            key = "cuff.patches"      # the patches, not grid angles, failed to hold the cuff
         raise ConfigError(str(exc), file=cfg.path, key=key) from None
 
 
