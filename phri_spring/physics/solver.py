@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spd6 import spd_solve_batched as _spd_solve_batched
+from .spd6 import SYM6_FULL, SYM6_UPPER, spd_solve_batched as _spd_solve_batched
 from .spring_newton import solve_newton, solve_newton_warm
 from .solution import Solution
 from .spring_outputs import (compression, energy, forces_from_compression, normal_forces,
@@ -45,11 +45,6 @@ __all__ = ["Solution", "solve", "solve_segments", "solve_per_sample", "Solver", 
 _BLOCK_ENTRIES = 1 << 21
 #: a cuff displacement beyond this [m, rad] is no answer (an absurd input: forces overflow)
 _HUGE = 1e100
-#: the 21 upper-triangle entries of a symmetric 6x6 (row-major flat indices), and for each
-#: of the 36 entries its place among them
-_UPPER = np.array([6 * i + j for i in range(6) for j in range(i, 6)])
-_SYM_FULL = np.array([[list(_UPPER).index(6 * min(i, j) + max(i, j)) for j in range(6)]
-                      for i in range(6)]).ravel()
 # --------------------------------------------------------------------------- the spring system
 def _exact_step(k, g, h, a0, q) -> float:
     """Exact minimiser alpha >= 0 of Pi(u + alpha d).
@@ -97,6 +92,8 @@ class SpringSystem(ContactSystem):
         self._linear = model.is_linear
         self.n = model.n
         self.cache = FactorCache() if cache is None else cache
+        # a contact set's H_S (symmetric: its 21 upper entries) and c_S are sums over the set
+        self._set_maps = np.hstack([model.bb[:, SYM6_UPPER], model.delta0_b])
 
     def factors(self, key, S_row: np.ndarray):
         """(H_S^-1 transposed, c_S) for contact set S: u = (r + c_S) @ Mt solves H_S u = r + c_S."""
@@ -131,12 +128,8 @@ class SpringSystem(ContactSystem):
         # many distinct sets: assemble each distinct set's H_S and c_S once (rows with one
         # key share one set, as in the groups above), then solve every row's 6x6 at once
         model = self.model
-        A = self.__dict__.get("_bb_d0")
-        if A is None:   # H_S is symmetric: its 21 upper entries, then c_S's 6
-            A = self._bb_d0 = np.hstack([model.bb[:, _UPPER], model.delta0_b])   # (n, 27)
-        HC = (S[first] * model.k) @ A                                            # (G, 27)
-        per_row = HC[inv]
-        Hf = np.ascontiguousarray(per_row[:, _SYM_FULL].T)
+        per_row = ((S[first] * model.k) @ self._set_maps)[inv]          # (m, 21 + 6)
+        Hf = np.ascontiguousarray(per_row[:, SYM6_FULL].T)
         Hf += model.K_s.reshape(36, 1)
         rhs = r - per_row[:, 21:]
         return _spd_solve_batched(Hf, rhs)
