@@ -350,3 +350,27 @@ def test_load_path_split_equals_the_per_element_sum(which):
     np.testing.assert_allclose(got, want, atol=1e-9 * np.abs(want).max())
     np.testing.assert_allclose(force_parts(model, sol.u, S), want,
                                atol=1e-9 * np.abs(want).max())
+
+
+def test_live_and_simulate_write_the_patch_labels(tmp_path):
+    """live (single-sample solver) and simulate (batch) on a free layout: the same label
+    columns and the same forces."""
+    import pandas as pd
+    from click.testing import CliRunner
+
+    from phri_cli.main import phri
+
+    p = write_config(tmp_path, free_dict())
+    rows = ["time,Fx,Fy,Fz,Mx,My,Mz"] + [
+        f"{0.01 * i:.2f},{3 * math.sin(i / 3):.4f},{-20 + i:.4f},{5 * math.cos(i / 4):.4f},"
+        f"0.1,-0.05,{0.02 * i:.4f}" for i in range(12)]
+    (tmp_path / "log.csv").write_text("\n".join(rows) + "\n")
+    r = CliRunner().invoke(phri, ["live", str(p), "--source", "-", "-o",
+                                  str(tmp_path / "live.csv")], input="\n".join(rows) + "\n")
+    assert r.exit_code == 0, r.output
+    r2 = run_phri("simulate", p, tmp_path / "log.csv", "-o", tmp_path / "sim.csv")
+    assert r2.exit_code == 0, r2.output
+    live, sim = pd.read_csv(tmp_path / "live.csv"), pd.read_csv(tmp_path / "sim.csv")
+    labels = ["F1", "F2", "F3", "F4", "F5"]
+    assert list(live.columns[1:6]) == labels == list(sim.columns[1:6])
+    np.testing.assert_allclose(live[labels].to_numpy(), sim[labels].to_numpy(), atol=1e-5)
