@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import harmony_dict, one_line, run_phri
-from phri_spring.errors import ConfigError, PhriError
+from phri_spring.errors import PhriError
 from phri_spring.io.config import config_from_dict
 from phri_spring.physics.patches import PatchLayout, check_layout, hoop_shares, mat_layout
 from phri_spring.physics.solver import solve
