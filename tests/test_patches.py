@@ -48,7 +48,8 @@ WRENCHES = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [3.0, -20.0, 5.0, 0.4, -0.3
                      [-2.0, 10.0, -30.0, -0.5, 0.6, -0.1], [0.0, 60.0, 10.0, 0.0, 0.0, 1.0]])
 
 
-@pytest.mark.parametrize("variant", ["circle", "ellipse_taper", "per_row_radius", "handles"])
+@pytest.mark.parametrize("variant", ["circle", "ellipse_taper", "per_row_radius", "handles",
+                                     "per_row_sections"])
 def test_grid_as_patches_gives_the_grid(variant):
     d = harmony_dict()
     if variant == "ellipse_taper":
@@ -58,6 +59,13 @@ def test_grid_as_patches_gives_the_grid(variant):
     elif variant == "per_row_radius":
         d["geometry"]["radius"] = [0.047, 0.045, 0.042]
     elif variant == "handles":
+        d["strap"] = {"tension": 15.0, "model": "handles"}
+    elif variant == "per_row_sections":
+        d["geometry"].pop("radius")
+        d["geometry"]["section"] = {"per_row": [
+            {"ellipse": [0.05, 0.042]}, {"ellipse": [0.048, 0.04], "rotation": 10.0},
+            {"outline": [[0.045 * math.cos(a) * (1 + 0.05 * math.cos(2 * a)),
+                          0.045 * math.sin(a)] for a in np.radians(np.arange(0, 360, 30))]}]}
         d["strap"] = {"tension": 15.0, "model": "handles"}
     grid = config_from_dict(d)
     p = grid_as_patches(harmony_dict() if variant == "circle" else d)
@@ -374,3 +382,23 @@ def test_live_and_simulate_write_the_patch_labels(tmp_path):
     labels = ["F1", "F2", "F3", "F4", "F5"]
     assert list(live.columns[1:6]) == labels == list(sim.columns[1:6])
     np.testing.assert_allclose(live[labels].to_numpy(), sim[labels].to_numpy(), atol=1e-5)
+
+
+def test_patch_between_rows_gets_the_interpolated_outline():
+    """Per-row radii 40 and 50 mm at x = -10 and +10 mm: a patch at x = 0 sits at 45 mm, one
+    beyond the last row at 50 mm (the nearest row's); arcs and hoop preload follow."""
+    d = free_dict()
+    d["geometry"]["rows"] = {"P": -0.01, "D": 0.01}
+    d["geometry"]["radius"] = [0.04, 0.05]
+    d["cuff"] = {"stiffness": 1e5, "patches": [
+        {"label": "M", "x_m": 0.0, "theta_deg": 0.0, "width_deg": 60.0, "length_m": 0.01},
+        {"label": "E", "x_m": 0.03, "theta_deg": 120.0, "width_deg": 60.0, "length_m": 0.01},
+        {"label": "W", "x_m": 0.0, "theta_deg": 240.0, "width_deg": 60.0, "length_m": 0.01}]}
+    g = config_from_dict(d).geometry()
+    np.testing.assert_allclose(np.hypot(g.points[:, 1], g.points[:, 2]), [0.045, 0.05, 0.045],
+                               rtol=1e-12)
+    np.testing.assert_allclose(g.areas, 0.01 * np.array([0.045, 0.05, 0.045]) * math.pi / 3,
+                               rtol=1e-12)
+    # band = union of [-5, 5] mm and [25, 35] mm = 20 mm; each patch 10 mm of it
+    model = model_from_config(config_from_dict(d))
+    np.testing.assert_allclose(model.f0, 15.0 * (math.pi / 3) * 0.5, rtol=1e-12)
