@@ -155,6 +155,13 @@ def test_overlap_is_refused_and_touching_allowed():
         check_layout(over)
     m = mat_layout(2, 3, 0.01, 20.0, 0.0, 0.0)
     check_layout(m)
+    # checked in blocks of rows: an overlap between patches of different blocks is found
+    x = np.arange(400) * 0.01
+    x[399] = x[3] + 0.001
+    far = PatchLayout(tuple(f"p{i}" for i in range(400)), x, np.zeros(400),
+                      np.full(400, 0.1), np.full(400, 0.01))
+    with pytest.raises(ValueError, match="p3 and p399 overlap"):
+        check_layout(far)
 
 
 # --------------------------------------------------------------------------- commands

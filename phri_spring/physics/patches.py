@@ -85,15 +85,18 @@ def check_layout(layout: PatchLayout) -> None:
         raise ModelInputError(f"patch {lab}: expected finite x and theta, 0 < width <= 360 deg "
                               "and a positive finite length", "patches")
     tol = 1e-9
-    ax = (np.abs(x[:, None] - x[None, :]) < 0.5 * (ln[:, None] + ln[None, :]) * (1 - tol))
-    d = np.abs((th[:, None] - th[None, :] + math.pi) % (2 * math.pi) - math.pi)
-    ang = d < 0.5 * (w[:, None] + w[None, :]) * (1 - tol) - 1e-12
-    both = np.triu(ax & ang, k=1)
-    if both.any():
-        a, b = np.argwhere(both)[0]
-        raise ModelInputError(f"patches {labels[a]} and {labels[b]} overlap (their axial and "
-                              "angular extents both intersect); expected patches that at most "
-                              "touch", "patches")
+    n = len(labels)
+    for i0 in range(0, n, 256):     # blocks of rows: memory of 256 x n, not n x n
+        i = slice(i0, min(n, i0 + 256))
+        ax = np.abs(x[i, None] - x[None, :]) < 0.5 * (ln[i, None] + ln[None, :]) * (1 - tol)
+        d = np.abs((th[i, None] - th[None, :] + math.pi) % (2 * math.pi) - math.pi)
+        ang = d < 0.5 * (w[i, None] + w[None, :]) * (1 - tol) - 1e-12
+        both = np.triu(ax & ang, k=i0 + 1)
+        if both.any():
+            a, b = np.argwhere(both)[0]
+            raise ModelInputError(f"patches {labels[i0 + a]} and {labels[b]} overlap (their "
+                                  "axial and angular extents both intersect); expected "
+                                  "patches that at most touch", "patches")
 
 
 def hoop_shares(x, length) -> np.ndarray:

@@ -89,8 +89,8 @@ def simulate_figure(pooled, *, labels: Sequence[str], pain_threshold_kpa: float,
                                      n - 0.5, -0.5))
             cbar = fig.colorbar(im, ax=ax_f, pad=0.01, aspect=25)
             cbar.set_label("largest normal force in the column [N]")
-        # a mat's hundreds of labels cannot all be read: every step-th one
-        step = 1 if n <= 48 else -(-n // 32)
+        # a mat's hundreds of labels cannot all be read: every step-th one (grids unchanged)
+        step = 1 if n <= 48 or layout is None else -(-n // 32)
         ax_f.set_yticks(np.arange(0, n, step), list(labels)[::step])
         ax_f.tick_params(axis="y", labelsize=7)
         ax_f.set_ylabel("element")
