@@ -132,7 +132,7 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
 
         write_simulate_plot(pool.result(), plot, labels=summary.labels,
                             pain_threshold_kpa=config.pain_threshold_kpa,
-                            title=f"{Path(log).name}: {arm} arm")
+                            title=f"{Path(log).name}: {arm} arm", layout=config.patches)
     if summary.not_converged and summary.friction_coefficient is not None:
         warn(no_answer_text(summary))
     elif summary.not_converged:

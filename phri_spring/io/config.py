@@ -58,9 +58,12 @@ class _Geometry(_Strict):
     #: required with a circular section (the default), an error with any other
     radius: Optional[Union[float, list[float]]] = Field(default=None,
                                                         json_schema_extra=_unit("m"))
-    rows: dict[str, float] = Field(json_schema_extra=_unit("m"))
-    row_width: Union[float, list[float]] = Field(json_schema_extra=_unit("m"))
-    angles: _Angles
+    #: rows, row_width and angles are required for the grid; with cuff.patches, rows
+    #: optional (where per-row radii or sections are given), row_width and angles refused
+    rows: Optional[dict[str, float]] = Field(default=None, json_schema_extra=_unit("m"))
+    row_width: Optional[Union[float, list[float]]] = Field(default=None,
+                                                           json_schema_extra=_unit("m"))
+    angles: Optional[_Angles] = None
     #: the limb's section (docs/model.md section 13): circle, {ellipse: [a, b], rotation},
     #: {outline: [[y, z], ...]} or {per_row: [...]}; checked by geometry_sections
     section: Optional[Union[str, dict]] = Field(default=None, json_schema_extra=_unit("m"))
@@ -73,6 +76,8 @@ class _Geometry(_Strict):
     @field_validator("rows")
     @classmethod
     def _rows(cls, v):
+        if v is None:
+            return v
         if not v:
             raise ValueError("expected at least one row, e.g. {A: -0.025, B: 0.0, C: 0.025}")
         for label in v:
@@ -146,6 +151,9 @@ class _Tissue(_Strict):
 
 class _Cuff(_Strict):
     stiffness: _StiffnessValue = Field(json_schema_extra=_unit("N/m"))
+    #: sensor patches anywhere (docs/model.md section 14): a list, a CSV path or {mat: ...};
+    #: checked by io/config_patches.py
+    patches: Any = None
 
     _stiffness_not_bool = field_validator("stiffness", mode="before")(_not_a_bool)
 
@@ -246,6 +254,11 @@ class Config:
     taper_deg: float = field(default=0.0, kw_only=True)
     #: geometry.scan, read (io.scan.ScanCuff): the elements' geometry on the scan; None without
     scan: Optional[Any] = field(default=None, kw_only=True, repr=False)
+    #: cuff.patches (a physics.patches.PatchLayout), None: the rows x angles grid. With
+    #: patches, row_labels is ("",) and angle_count the patch count (one "row"), and
+    #: patch_row_x the positions where radius / sections are given
+    patches: Optional[object] = field(default=None, kw_only=True)
+    patch_row_x: Optional[np.ndarray] = field(default=None, kw_only=True)
     tissue_stiffness: np.ndarray           # (n,), as configured, in tissue_basis
     tissue_basis: str
     indenter_diameter: float
@@ -294,6 +307,11 @@ class Config:
 
         if self.scan is not None:
             return scan_geometry(self)
+        if self.patches is not None:
+            from ..physics.patches import patch_geometry
+
+            return patch_geometry(self.patches, self.patch_row_x, self.sections, self.taper_deg,
+                                  circular_radius=self.radius if self.sections is None else None)
         if self.sections is None:
             return cuff_geometry(self.row_x, self.radius, self.row_width, self.angle_start_deg,
                                  self.angle_step_deg, self.angle_count, self.angle_width_deg,
@@ -337,58 +355,34 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         raise _pydantic_to_config_error(exc, path, {"tissue": law_keys}) from None
 
     g = root.geometry
-    row_labels = tuple(str(k) for k in g.rows)
-    if len(set(row_labels)) != len(row_labels):
-        raise ConfigError("row labels must be unique", file=path, key="geometry.rows")
-    row_x = np.array([float(v) for v in g.rows.values()])
-    if not np.all(np.isfinite(row_x)):
-        raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
-    check_plausible(row_x, "geometry.rows", path)
-    n_rows, n_ang = len(row_labels), g.angles.count
-    if g.scan is not None:
-        check_scan_alone(g, path)
-        sections, radius, taper = None, None, 0.0
-    else:
-        # the radius (and every section's distance from the axis) is checked against
-        # physics.sections.RHO_RANGE_M there
-        sections, radius, taper = geometry_sections(g, n_rows, path)
-    row_width = per_row_values(g.row_width, n_rows, path, "geometry.row_width")
-    check_plausible(row_width, "geometry.row_width", path)
-    for k in ("start", "step"):
-        if not math.isfinite(getattr(g.angles, k)):
-            raise ConfigError("expected a finite angle [deg]", file=path, key=f"geometry.angles.{k}")
-    check_plausible(g.angles.start, "geometry.angles.start", path)
-    if n_ang > 1 and not g.angles.step > 0:
-        raise ConfigError(f"expected a positive step [deg], got {g.angles.step}", file=path,
-                          key="geometry.angles.step")
-    width = g.angles.width if g.angles.width is not None else g.angles.step
-    if not width > 0:
-        raise ConfigError("expected a positive angular width [deg] (give geometry.angles.width "
-                          "when count is 1)", file=path, key="geometry.angles.width")
-    if n_ang > 1:
-        check_plausible(g.angles.step, "geometry.angles.step", path)
-    if g.angles.width is not None:
-        check_plausible(g.angles.width, "geometry.angles.width", path)
-    if n_ang * width > 360.0 + 1e-9:
-        raise ConfigError(f"{n_ang} elements of {width} deg span more than 360 deg", file=path,
-                          key="geometry.angles")
-    # before the labels and per-element arrays exist: a count of a billion must end in one
-    # line, not in the out-of-memory killer
-    from .memory_budget import check_elements
-
-    check_elements(n_rows, n_ang, path=path)
-    labels = _label_list(row_labels, n_ang)
     base = Path(base_dir) if base_dir is not None else (Path(path).parent if path else Path("."))
+    if root.cuff.patches is not None:
+        from .config_patches import patch_config_geometry
+
+        (row_labels, row_x, radius, row_width, labels, sections, taper, layout,
+         patch_row_x) = patch_config_geometry(g, root.cuff.patches, base, path)
+        n_rows, n_ang = 1, len(labels)
+        angles = (0.0, 0.0, n_ang, None)
+    else:
+        layout = patch_row_x = None
+        (row_labels, row_x, radius, row_width, labels, sections, taper,
+         angles) = _grid_geometry(g, path)
+        n_rows, n_ang = len(row_labels), angles[2]
+    free = layout is not None
 
     k_t = resolve_stiffness(root.tissue.stiffness, n_rows, n_ang, labels, path=path,
-                            key="tissue.stiffness", allow_inf=False, base_dir=base)
+                            key="tissue.stiffness", allow_inf=False, base_dir=base,
+                            free_layout=free)
     k_c = resolve_stiffness(root.cuff.stiffness, n_rows, n_ang, labels, path=path,
-                            key="cuff.stiffness", allow_inf=True, base_dir=base)
+                            key="cuff.stiffness", allow_inf=True, base_dir=base,
+                            free_layout=free)
     for key, k in (("tissue.stiffness", k_t), ("cuff.stiffness", k_c)):
         bad = ~(k >= 1.0)
         check_plausible(k, key, path, f" at {labels[int(np.argmax(bad))]}" if bad.any() else "")
     stiffness_files = tuple(_csv_path(v, base) for v in (root.tissue.stiffness, root.cuff.stiffness)
                             if isinstance(v, str))
+    if free and isinstance(root.cuff.patches, str):
+        stiffness_files += (_csv_path(root.cuff.patches, base),)
 
     lc = root.load_cell
     from ..physics.loadcell import convention_sign, rotation_from_euler_xyz
@@ -441,11 +435,17 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
 
     scan = None
     if g.scan is not None:
+        if free:
+            raise ConfigError("sensor patches on a scanned limb are not available yet (a patch "
+                              "is placed on a section's outline); give the scan's elements as "
+                              "geometry.rows and geometry.angles, or describe the limb by "
+                              "geometry.section", file=path, key="cuff.patches")
+        width = angles[3] if angles[3] is not None else angles[1]
         scan = read_scan(g, st, row_x, row_width, width, base, path, row_labels)
         radius = scan.radius
 
-    law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, len(row_labels), n_ang,
-                                           labels, path, base)
+    law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, n_rows, n_ang,
+                                           labels, path, base, free)
     cont = root.tissue.continuum
     if cont is not None:
         check_plausible(cont.thickness, "tissue.continuum.thickness", path)
@@ -466,10 +466,10 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
 
     return Config(
         path=Path(path) if path else None, name=root.name, row_labels=row_labels, row_x=row_x,
-        radius=radius, row_width=row_width, angle_start_deg=float(g.angles.start),
-        angle_step_deg=float(g.angles.step), angle_count=int(n_ang),
-        angle_width_deg=None if g.angles.width is None else float(g.angles.width),
-        labels=labels, sections=sections, taper_deg=taper, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
+        radius=radius, row_width=row_width, angle_start_deg=angles[0],
+        angle_step_deg=angles[1], angle_count=int(angles[2]), angle_width_deg=angles[3],
+        labels=labels, sections=sections, taper_deg=taper, patches=layout,
+        patch_row_x=patch_row_x, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
         scan=scan,
         indenter_diameter=float(root.tissue.indenter_diameter),
         poisson_ratio=float(root.tissue.poisson_ratio), cuff_stiffness=k_c,
@@ -501,6 +501,60 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         else float(root.interface.friction_coefficient),
         tissue_law=law, tissue_law_class=law_cls, tissue_law_parameters=law_params,
     )
+
+
+def _grid_geometry(g, path):
+    """The rows x angles grid of the geometry schema: (row_labels, row_x, radius,
+    row_width, labels, sections, taper, (start, step, count, width))."""
+    for k in ("rows", "row_width", "angles"):
+        if getattr(g, k) is None:
+            raise ConfigError("missing required key (or give cuff.patches)", file=path,
+                              key=f"geometry.{k}")
+    row_labels = tuple(str(k) for k in g.rows)
+    if len(set(row_labels)) != len(row_labels):
+        raise ConfigError("row labels must be unique", file=path, key="geometry.rows")
+    row_x = np.array([float(v) for v in g.rows.values()])
+    if not np.all(np.isfinite(row_x)):
+        raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
+    check_plausible(row_x, "geometry.rows", path)
+    n_rows, n_ang = len(row_labels), g.angles.count
+    if g.scan is not None:
+        check_scan_alone(g, path)
+        sections, radius, taper = None, None, 0.0
+    else:
+        # the radius (and every section's distance from the axis) is checked against
+        # physics.sections.RHO_RANGE_M there
+        sections, radius, taper = geometry_sections(g, n_rows, path)
+    row_width = per_row_values(g.row_width, n_rows, path, "geometry.row_width")
+    check_plausible(row_width, "geometry.row_width", path)
+    for k in ("start", "step"):
+        if not math.isfinite(getattr(g.angles, k)):
+            raise ConfigError("expected a finite angle [deg]", file=path, key=f"geometry.angles.{k}")
+    check_plausible(g.angles.start, "geometry.angles.start", path)
+    if n_ang > 1 and not g.angles.step > 0:
+        raise ConfigError(f"expected a positive step [deg], got {g.angles.step}", file=path,
+                          key="geometry.angles.step")
+    width = g.angles.width if g.angles.width is not None else g.angles.step
+    if not width > 0:
+        raise ConfigError("expected a positive angular width [deg] (give geometry.angles.width "
+                          "when count is 1)", file=path, key="geometry.angles.width")
+    if n_ang > 1:
+        check_plausible(g.angles.step, "geometry.angles.step", path)
+    if g.angles.width is not None:
+        check_plausible(g.angles.width, "geometry.angles.width", path)
+    if n_ang * width > 360.0 + 1e-9:
+        raise ConfigError(f"{n_ang} elements of {width} deg span more than 360 deg", file=path,
+                          key="geometry.angles")
+    # before the labels and per-element arrays exist: a count of a billion must end in one
+    # line, not in the out-of-memory killer
+    from .memory_budget import check_elements
+
+    check_elements(n_rows, n_ang, path=path)
+    labels = _label_list(row_labels, n_ang)
+    angles = (float(g.angles.start), float(g.angles.step), int(n_ang),
+              None if g.angles.width is None else float(g.angles.width))
+    return row_labels, row_x, radius, row_width, labels, sections, taper, angles
+
 
 
 def _csv_path(value, base: Path) -> Optional[Path]:
@@ -548,7 +602,7 @@ def _split_law_parameters(data: dict, path):
     return {**data, "tissue": rest}, values, keys
 
 
-def _tissue_law(law, values, n_rows, n_angles, labels, path, base):
+def _tissue_law(law, values, n_rows, n_angles, labels, path, base, free_layout=False):
     """(law name, law class, its parameters as (n,) arrays in their units)."""
     from ..physics.tissue_laws import TISSUE_LAWS
 
@@ -559,7 +613,8 @@ def _tissue_law(law, values, n_rows, n_angles, labels, path, base):
         out[key] = resolve_stiffness(value, n_rows, n_angles, labels, path=path,
                                      key=f"tissue.{key}", minimum=p.minimum, unit=p.unit,
                                      what=key.replace("_", " "), csv_column=p.csv_column,
-                                     base_dir=base, maximum=p.maximum)
+                                     base_dir=base, maximum=p.maximum,
+                                     free_layout=free_layout)
     return law, TISSUE_LAWS[law], out
 
 

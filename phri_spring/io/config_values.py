@@ -134,7 +134,7 @@ def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, k
                       allow_inf: bool = False, base_dir: Optional[Path] = None,
                       minimum: Optional[float] = None, unit: str = "N/m",
                       what: str = "stiffness", csv_column: Optional[str] = None,
-                      maximum: float = math.inf) -> np.ndarray:
+                      maximum: float = math.inf, free_layout: bool = False) -> np.ndarray:
     """Turn any stiffness value form of docs/model.md section 6 into an (n,) array [N/m], row-major.
 
     Forms: a scalar, ``{per_row: [...]}``, ``{per_angle: [...]}``, a nested
@@ -142,8 +142,16 @@ def resolve_stiffness(value, n_rows: int, n_angles: int, labels, *, path=None, k
     path (relative to ``base_dir``) to a CSV written by ``phri fit-stiffness``.
     With ``minimum`` (a tissue law's parameter, in ``unit``): finite values >=
     ``minimum`` (and <= ``maximum``) instead of positive ones, read from the CSV's
-    ``csv_column`` (no CSV form without one).
+    ``csv_column`` (no CSV form without one). With ``free_layout`` (``cuff.patches``: no
+    rows or angles), the per_row, per_angle and nested-list forms are refused.
     """
+    if free_layout and (isinstance(value, list) or (isinstance(value, dict) and any(
+            str(k) in ("per_row", "per_angle") for k in value))):
+        form = "a nested rows x angles list" if isinstance(value, list) else \
+            f"{{{next(str(k) for k in value if str(k) in ('per_row', 'per_angle'))}: [...]}}"
+        raise ConfigError(f"{form} refers to rows and angles, which cuff.patches does not "
+                          "have; give a scalar, a mapping from patch label to value, or a CSV",
+                          file=path, key=key)
     n = n_rows * n_angles
     shape_txt = f"{n_rows} rows x {n_angles} angles"
 

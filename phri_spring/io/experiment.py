@@ -359,7 +359,7 @@ def read_trial(spec: Union[TrialSpec, str, Path], labels, *, baseline: Optional[
         raise DataError(f"missing element column{more}; expected one column of measured load [N] "
                         f"per element of the config ({labels[0]}..{labels[-1]}, {len(labels)} "
                         "in all)", file=path, key=missing[0])
-    pattern = "|".join([re.escape(r) for r in row_labels] + ["[A-Z]"])
+    pattern = "|".join([re.escape(r) for r in row_labels if r] + ["[A-Z]"])
     label_like = re.compile(rf"^(?:{pattern})\d+$")
     extra = [c for c in cols if c not in labels and c not in LOG_COLUMNS and c != "condition"
              and label_like.match(c)]

@@ -55,6 +55,12 @@ class CuffGeometry:
         handles; None on the circular cuff of section 1 (handles on the mean radius).
     handles_radius : float or None
         The circular cuff's handle radius (the mean row radius) [m]; None otherwise.
+    hoop_share : ndarray, shape (n,), or None
+        A free layout's (docs/model.md section 14) share of the hoop preload per unit
+        turning: f0_e = T psi_e hoop_share_e; None on a grid (w_r / sum_r w_r).
+    free_layout : bool
+        True for sensor patches placed one by one (``cuff.patches``): one "row" holding
+        every element, and no rows x angles structure to rely on.
     """
 
     labels: tuple
@@ -73,6 +79,8 @@ class CuffGeometry:
     turning: np.ndarray = None
     strap_section: object = None
     handles_radius: float | None = None
+    hoop_share: np.ndarray = None
+    free_layout: bool = False
 
     @property
     def n(self) -> int:

@@ -53,8 +53,9 @@ def force_parts(model, u, contact, normal=None, tangential=None) -> np.ndarray:
         Their contact sets.
     normal, tangential : ndarray, shape (m, n) and (m, n, 2), optional
         The normal and tangential forces (axial, circumferential) [N] when the solution
-        carries them (friction: ``Solution.forces``, ``Solution.tangential``); otherwise
-        they are recomputed from u (bonded).
+        carries them (``Solution.forces``; with friction ``Solution.tangential``);
+        otherwise they are recomputed from u (bonded). The coupled model's own patch
+        forces are used in any case.
     """
     u = np.atleast_2d(np.asarray(u, dtype=float))
     S = np.atleast_2d(np.asarray(contact, dtype=bool))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import ModelInputError
@@ -83,6 +85,9 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
         edges and the mean row position unless given); ``hoop``: None (the wrench
         follows from f0 and the arm model).
     """
+    if model == "hoop" and geometry.hoop_share is not None:
+        turning = np.maximum(geometry.turning, 0.0)
+        return float(tension) * turning * geometry.hoop_share, None
     if model == "hoop":
         row_w = geometry.row_width[:: geometry.n_angles]
         turning = geometry.span if geometry.turning is None else geometry.turning
@@ -90,11 +95,19 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
         # the hollow and presses nothing, so that u = 0 stays the unloaded equilibrium
         return hoop_preload(tension, np.maximum(turning, 0.0), geometry.row_width, row_w), None
     if model == "handles":
+        if handle_angles_deg is None and geometry.free_layout:
+            # a free layout's edges: its extreme patch edges in angle (a cuff opening
+            # that does not wrap past 180 deg from its middle)
+            mid = math.atan2(np.sin(geometry.theta).mean(), np.cos(geometry.theta).mean())
+            rel = (geometry.theta - mid + math.pi) % (2 * math.pi) - math.pi
+            handle_angles_deg = (math.degrees(mid + np.min(rel - geometry.span / 2)),
+                                 math.degrees(mid + np.max(rel + geometry.span / 2)))
         if handle_angles_deg is None:
             th = np.degrees(geometry.theta[: geometry.n_angles])
             half = np.degrees(geometry.span[0]) / 2.0
             handle_angles_deg = (th[0] - half, th[-1] + half)
-        ax = float(np.mean(geometry.x[:: geometry.n_angles])) if handle_axial_position is None \
+        xs = geometry.x if geometry.free_layout else geometry.x[:: geometry.n_angles]
+        ax = float(np.mean(xs)) if handle_axial_position is None \
             else float(handle_axial_position)
         ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
         if geometry.strap_section is not None:

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .spd6 import spd_solve_batched as _spd_solve_batched
+from .spd6 import SYM6_FULL, SYM6_UPPER, spd_solve_batched as _spd_solve_batched
 from .spring_newton import solve_newton, solve_newton_warm
 from .solution import Solution
 from .friction_form import interface_mu
@@ -93,6 +93,8 @@ class SpringSystem(ContactSystem):
         self._linear = model.is_linear
         self.n = model.n
         self.cache = FactorCache() if cache is None else cache
+        # a contact set's H_S (symmetric: its 21 upper entries) and c_S are sums over the set
+        self._set_maps = np.hstack([model.bb[:, SYM6_UPPER], model.delta0_b])
 
     def factors(self, key, S_row: np.ndarray):
         """(H_S^-1 transposed, c_S) for contact set S: u = (r + c_S) @ Mt solves H_S u = r + c_S."""
@@ -116,20 +118,21 @@ class SpringSystem(ContactSystem):
             Mt, c = self.factors(keys[0], S[0])
             u = r + c
             return u @ Mt
-        unique = np.unique(keys, return_inverse=True)
-        G = len(unique[0])
+        uniq, first, inv = np.unique(keys, return_index=True, return_inverse=True)
+        G = len(uniq)
         if G <= 4 or 20 * G <= m:
             out = np.empty((m, 6))
-            for key, idx in key_groups(keys, unique):
+            for key, idx in key_groups(keys, (uniq, inv)):
                 Mt, c = self.factors(key, S[idx[0]])
                 out[idx] = (r[idx] + c) @ Mt
             return out
-        # many distinct sets: assemble and solve every 6x6 system at once
+        # many distinct sets: assemble each distinct set's H_S and c_S once (rows with one
+        # key share one set, as in the groups above), then solve every row's 6x6 at once
         model = self.model
-        kS = S * model.k
-        Hf = model.bb.T @ kS.T
+        per_row = ((S[first] * model.k) @ self._set_maps)[inv]          # (m, 21 + 6)
+        Hf = np.ascontiguousarray(per_row[:, SYM6_FULL].T)
         Hf += model.K_s.reshape(36, 1)
-        rhs = r - kS @ model.delta0_b
+        rhs = r - per_row[:, 21:]
         return _spd_solve_batched(Hf, rhs)
 
     def indicator(self, u, S=None, keys=None, out=None):

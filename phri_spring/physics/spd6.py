@@ -4,7 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["spd_factor_batched", "spd_solve_batched", "spd_solve_factored"]
+__all__ = ["spd_factor_batched", "spd_solve_batched", "spd_solve_factored", "SYM6_UPPER",
+           "SYM6_FULL"]
+
+#: the 21 upper-triangle entries of a symmetric 6x6 (row-major flat indices), and for each
+#: of its 36 entries the place of that entry's value among those 21
+SYM6_UPPER = np.array([6 * i + j for i in range(6) for j in range(i, 6)])
+SYM6_FULL = np.array([[list(SYM6_UPPER).index(6 * min(i, j) + max(i, j)) for j in range(6)]
+                      for i in range(6)]).ravel()
 
 
 def spd_factor_batched(Hf: np.ndarray) -> dict:

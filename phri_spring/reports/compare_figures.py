@@ -287,8 +287,9 @@ def render_job(job, dpi: int = DEFAULT_DPI) -> str:
     """Draw and save one figure described by ``job = (kind, path, arguments)``.
 
     ``kind`` is ``"heatmap"`` (arguments of :func:`heatmap_figure`, drawn by a
-    reused :class:`HeatmapRenderer`), ``"wrench"`` (of :func:`wrench_figure`)
-    or ``"bars"`` (of :func:`rmse_bars_figure`). Returns the path written.
+    reused :class:`HeatmapRenderer`), ``"layout"`` (a free layout's patches, of
+    :func:`~phri_spring.reports.layout_figures.layout_compare_figure`), ``"wrench"``
+    (of :func:`wrench_figure`) or ``"bars"`` (of :func:`rmse_bars_figure`). Returns the path written.
     """
     kind, path, kw = job
     kw = dict(kw)
@@ -301,6 +302,12 @@ def render_job(job, dpi: int = DEFAULT_DPI) -> str:
         else:
             r.fill(kw.pop("time"), kw.pop("wrench"), kw.pop("conditions"), **kw)
         r.save(path, dpi)
+    elif kind == "layout":
+        from .layout_figures import layout_compare_figure
+
+        save_figure(layout_compare_figure(kw.pop("x"), kw.pop("theta"), kw.pop("width"),
+                                          kw.pop("length"), kw.pop("measured"),
+                                          kw.pop("simulated"), **kw), path, dpi)
     elif kind == "bars":
         save_figure(rmse_bars_figure(kw.pop("summary"), kw.pop("rmse", None), **kw), path, dpi)
     else:

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-__all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "fast_png", "write_png"]
+__all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "fast_png", "write_png", "figure_style"]
 
 #: colour-blind-safe colours of the arm models (Okabe-Ito orange and blue)
 ARM_COLORS = {"rigid": "#E69F00", "compliant": "#0072B2", "coupled": "#009E73"}
@@ -34,6 +34,10 @@ def _style():
     import matplotlib
 
     return matplotlib.rc_context(_FONT)
+
+
+#: the project's figure fonts, as a context manager (public name of ``_style``)
+figure_style = _style
 
 
 class _ReusedFigure:

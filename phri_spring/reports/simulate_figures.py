@@ -15,7 +15,7 @@ __all__ = ["simulate_figure"]
 
 
 def simulate_figure(pooled, *, labels: Sequence[str], pain_threshold_kpa: float,
-                    title: str = "", max_columns: int = 1000) -> Figure:
+                    title: str = "", max_columns: int = 1000, layout=None) -> Figure:
     """Peak pressure and element forces against time, max-pooled (no peak lost).
 
     Parameters
@@ -32,6 +32,9 @@ def simulate_figure(pooled, *, labels: Sequence[str], pain_threshold_kpa: float,
         Most columns of the heat map: groups are merged further (by the
         maximum) down to this, about the heat map's width in pixels, so that
         drawing does not drop a column.
+    layout : tuple of 4 array_like (x [m], theta [rad], width [rad], length [m]), optional
+        A free layout's patches (``cuff.patches``): a third axes draws them on the
+        unrolled limb surface, each coloured by its largest force over the log.
 
     Returns
     -------
@@ -51,8 +54,14 @@ def simulate_figure(pooled, *, labels: Sequence[str], pain_threshold_kpa: float,
         padded[:k] = forces
         forces = np.fmax.reduce(padded.reshape(kk, g, -1), axis=1)
     with _style():
-        fig = Figure(figsize=(9.0, 6.2), layout="constrained")
-        ax_p, ax_f = fig.subplots(2, 1, sharex=True, height_ratios=(1.0, 1.6))
+        if layout is None:
+            fig = Figure(figsize=(9.0, 6.2), layout="constrained")
+            ax_p, ax_f = fig.subplots(2, 1, sharex=True, height_ratios=(1.0, 1.6))
+        else:
+            fig = Figure(figsize=(9.0, 10.4), layout="constrained")
+            top, bottom = fig.subfigures(2, 1, height_ratios=(1.5, 1.0))
+            ax_p, ax_f = top.subplots(2, 1, sharex=True, height_ratios=(1.0, 1.6))
+            _unrolled_panel(bottom, layout, pooled.forces, labels)
         if k:
             # each group as a step spanning its samples: peaks keep their place in time
             edges = np.r_[t0, t1[-1]]
@@ -80,7 +89,9 @@ def simulate_figure(pooled, *, labels: Sequence[str], pain_threshold_kpa: float,
                                      n - 0.5, -0.5))
             cbar = fig.colorbar(im, ax=ax_f, pad=0.01, aspect=25)
             cbar.set_label("largest normal force in the column [N]")
-        ax_f.set_yticks(np.arange(n), list(labels))
+        # a mat's hundreds of labels cannot all be read: every step-th one (grids unchanged)
+        step = 1 if n <= 48 or layout is None else -(-n // 32)
+        ax_f.set_yticks(np.arange(0, n, step), list(labels)[::step])
         ax_f.tick_params(axis="y", labelsize=7)
         ax_f.set_ylabel("element")
         ax_f.set_xlabel("time [s]")
@@ -89,6 +100,22 @@ def simulate_figure(pooled, *, labels: Sequence[str], pain_threshold_kpa: float,
                 f"{per:,} consecutive sample{'s' if per != 1 else ''}")
         fig.suptitle(f"{title}\n{note}" if title else note, fontsize=9.5)
     return fig
+
+
+def _unrolled_panel(fig, layout, forces, labels) -> None:
+    """The patches on the unrolled surface, coloured by each one's largest force."""
+    from .layout_figures import draw_unrolled
+
+    ax = fig.subplots()
+    f = np.asarray(forces, dtype=float)
+    peak = np.full(f.shape[1], np.nan)
+    seen = np.isfinite(f).any(axis=0)
+    peak[seen] = np.nanmax(f[:, seen], axis=0)
+    top = float(np.nanmax(peak)) if seen.any() else 1.0
+    coll = draw_unrolled(ax, *layout, peak, vmin=0.0, vmax=top if top > 0 else 1.0,
+                         labels=labels)
+    fig.colorbar(coll, ax=ax, pad=0.01).set_label("largest normal force over the log [N]")
+    ax.set_title("patches on the unrolled limb surface", fontsize=9)
 
 
 def _style():

@@ -138,6 +138,8 @@ def _spring_model(cfg: Config, arm: str):
                            friction_coefficient=cfg.friction_coefficient)
     except ModelInputError as exc:
         key = _QUANTITY_KEYS.get(exc.quantity) if exc.quantity != "stiffness" else None
+        if exc.quantity == "geometry" and cfg.patches is not None:
+            key = "cuff.patches"      # the patches, not grid angles, failed to hold the cuff
         raise ConfigError(str(exc), file=cfg.path, key=key) from None
 
 
@@ -202,6 +204,10 @@ def _check_coupled_shape(cfg: Config) -> None:
     """Refuse a limb the coupled arm cannot model (docs/model.md section 13): the built-in
     FE meshes a circular cylindrical layer, and the hyperelastic laws are identified on
     it; the user's own FE export (tissue.continuum.surface_stiffness) may be of any shape."""
+    if cfg.patches is not None:
+        raise ConfigError("the coupled arm's FE meshes its patches as rows x angles of one "
+                          "cylindrical layer; a free layout is not available there yet (use "
+                          "--arm compliant or rigid)", file=cfg.path, key="cuff.patches")
     if cfg.is_circular_cylinder:
         return
     if cfg.scan is not None:

@@ -495,13 +495,19 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
                     if j == tc.baseline_index:
                         continue
                     hname = _unique(_slug(s.experiment, s.direction, s.trial, c), used_h) + ".png"
-                    jobs.append(("heatmap", tmp / "heatmaps" / hname,
-                                 {"measured": tc.measured[j],
-                                  "simulated": {a: tc.simulated[a][j] for a in result.arms},
-                                  "row_labels": tuple(cfg.row_labels),
-                                  "n_angles": cfg.angle_count,
-                                  "title": _heat_title(tc, j, cfg),
-                                  "rmse": {a: float(tc.rmse[a][j]) for a in result.arms}}))
+                    kw = {"measured": tc.measured[j],
+                          "simulated": {a: tc.simulated[a][j] for a in result.arms},
+                          "title": _heat_title(tc, j, cfg),
+                          "rmse": {a: float(tc.rmse[a][j]) for a in result.arms}}
+                    if cfg.patches is None:
+                        jobs.append(("heatmap", tmp / "heatmaps" / hname,
+                                     {**kw, "row_labels": tuple(cfg.row_labels),
+                                      "n_angles": cfg.angle_count}))
+                    else:   # a free layout: drawn on the unrolled limb surface
+                        lay = cfg.patches
+                        jobs.append(("layout", tmp / "heatmaps" / hname,
+                                     {**kw, "x": lay.x, "theta": lay.theta, "width": lay.width,
+                                      "length": lay.length, "labels": lay.labels}))
                     written.append(outdir / "heatmaps" / hname)
                     heat.append((c, f"heatmaps/{hname}"))
                 fig_index.append((s, f"wrench/{wname}", heat))

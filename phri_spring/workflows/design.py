@@ -61,6 +61,8 @@ class StudyResult:
     n_angles: int
     loads: LoadSet
     outdir: Path
+    #: cuff.patches of the base config (a free layout: its figure is the unrolled surface)
+    patches: object = None
     resumed_batches: int = 0
     total_batches: int = 0
     compute_seconds: float = 0.0   # sum over the batches computed in this run [s]
@@ -217,7 +219,7 @@ def _assemble(study, base, values, configs, loads, done, outdir) -> StudyResult:
     return StudyResult(pain_threshold_kpa=thr, study=study, table=table, best=best,
                        best_config=best_cfg, element_peak_kpa=peaks, labels=tuple(base.labels),
                        row_labels=tuple(base.row_labels), n_angles=base.angle_count,
-                       loads=loads, outdir=outdir)
+                       loads=loads, outdir=outdir, patches=base.patches)
 
 
 # --------------------------------------------------------------------------- outputs
@@ -288,7 +290,17 @@ def write_outputs(result: StudyResult, *, figures: bool = True, dpi: int = 150) 
                  dfig.objectives_vs_parameters_figure(result.table,
                                                       [p.path for p in st.parameters],
                                                       st.objectives))]
-        if result.best >= 0:
+        lay = result.patches
+        if result.best >= 0 and lay is not None:
+            from ..reports.layout_figures import layout_figure
+
+            made.append(("best_peak_pressure.png", "Peak pressure of the best design",
+                         layout_figure(lay.x, lay.theta, lay.width, lay.length,
+                                       result.element_peak_kpa[result.best],
+                                       labels=lay.labels, value_label="peak pressure [kPa]",
+                                       title=f"Best design {result.best}: peak pressure over "
+                                             "the load set [kPa]")))
+        elif result.best >= 0:
             made.append(("best_peak_pressure.png", "Peak pressure of the best design",
                          dfig.peak_pressure_heatmap_figure(
                              result.element_peak_kpa[result.best], row_labels=result.row_labels,

@@ -183,14 +183,18 @@ def check_plot_path(path, inputs=(), option: str = "--plot") -> Path:
 
 
 def write_simulate_plot(pooled: PooledLog, path, *, labels, pain_threshold_kpa: float,
-                        title: str = "", dpi: int = 150) -> Path:
-    """Draw a :class:`PooledLog` and write it atomically (PNG, SVG or PDF by the extension)."""
+                        title: str = "", dpi: int = 150, layout=None) -> Path:
+    """Draw a :class:`PooledLog` and write it atomically (PNG, SVG or PDF by the extension).
+
+    ``layout``: a free layout's :class:`~phri_spring.physics.patches.PatchLayout`
+    (``cuff.patches``), drawn on the unrolled limb surface too; None for a grid."""
     from ..reports.compare_figures import save_figure
     from ..reports.simulate_figures import simulate_figure
 
     path = Path(path)
+    arrays = None if layout is None else (layout.x, layout.theta, layout.width, layout.length)
     fig = simulate_figure(pooled, labels=labels, pain_threshold_kpa=pain_threshold_kpa,
-                          title=title)
+                          title=title, layout=arrays)
     with atomic_file(path) as tmp:
         save_figure(fig, tmp, dpi)
     return path
