@@ -10,7 +10,6 @@ pandas writes the forces. Usage:
 
 import sys
 
-import numpy as np
 import pandas as pd
 
 from phri_spring.io.config import load_config

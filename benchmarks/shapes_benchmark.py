@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import copy
 import math
-import re
 import sys
 from pathlib import Path
 

@@ -22,7 +22,7 @@ from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import HARMONY_CONFIG, harmony_dict, one_line
+from conftest import harmony_dict, one_line
 from phri_cli.main import phri
 from phri_spring.io.config import load_config
 from phri_spring.io.logs import read_wrench_log

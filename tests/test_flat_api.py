@@ -73,7 +73,7 @@ def test_readme_library_example_runs(tmp_path, monkeypatch):
     assert ns["res"].forces.shape == (1, 21)
     assert ns["summary"].samples == 4600           # data rows of examples/wrench_log.csv
     assert (tmp_path / "forces.csv").is_file()
-    f, W, model = ns["f"], ns["W"], ns["model"]
+    f, model = ns["f"], ns["model"]
     assert f.shape == (21,) and np.all(np.isfinite(f)) and np.all(f >= 0)
     # the single-sample solver and the batch path agree (two code paths)
     np.testing.assert_allclose(f, ps.simulate(ns["cfg"], np.array([[0, 0, 20.0, 0, 0, 0]]),

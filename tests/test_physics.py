@@ -53,6 +53,7 @@ def test_harmony_geometry_by_hand():
         np.testing.assert_allclose(g.b[e], [0.0, -c, -s, 0.0, x * s, -x * c], atol=1e-15)
     # A_e = w R radians(35) = 0.025 * 0.045 * 0.6108652 = 6.872234e-4 m^2
     np.testing.assert_allclose(g.areas, 6.872233929727672e-4, rtol=1e-12)
+    np.testing.assert_allclose(g.areas, w * R * math.radians(35.0), rtol=1e-12)
 
 
 def test_angular_width_defaults_to_step_and_can_be_set():
