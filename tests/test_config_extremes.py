@@ -48,7 +48,7 @@ ABSURD = [
     ("strap.tension", 1e6, ("0 to 1000",)),
     ("strap.tension", 1e300, ("0 to 1000",)),
     ("geometry.row_width", 1e-300, ("0.001 to 0.5",)),
-    ("geometry.angles.width", 1e-300, ("0.1 to 360",)),
+    ("geometry.angles.width", 1e-300, ("1e-06 to 360",)),
     ("load_cell.position", [1e300, 0.0, 0.0], ("-2 to 2",)),
     ("tissue.stiffness", 1e-300, (">= 1",)),
     ("cuff.stiffness", 1e-300, (">= 1",)),

@@ -516,8 +516,14 @@ def _grid_geometry(g, path):
     row_x = np.array([float(v) for v in g.rows.values()])
     if not np.all(np.isfinite(row_x)):
         raise ConfigError("expected finite axial positions [m]", file=path, key="geometry.rows")
-    check_plausible(row_x, "geometry.rows", path)
     n_rows, n_ang = len(row_labels), g.angles.count
+    # before the labels and per-element arrays exist: a count of a billion must end in one
+    # line, not in the out-of-memory killer; and first, naming the count (the key to change)
+    # rather than the slivers such a grid is made of
+    from .memory_budget import check_elements
+
+    check_elements(n_rows, n_ang, path=path)
+    check_plausible(row_x, "geometry.rows", path)
     if g.scan is not None:
         check_scan_alone(g, path)
         sections, radius, taper = None, None, 0.0
@@ -538,18 +544,13 @@ def _grid_geometry(g, path):
     if not width > 0:
         raise ConfigError("expected a positive angular width [deg] (give geometry.angles.width "
                           "when count is 1)", file=path, key="geometry.angles.width")
+    if n_ang * width > 360.0 + 1e-9:
+        raise ConfigError(f"{n_ang} elements of {width} deg span more than 360 deg", file=path,
+                          key="geometry.angles")
     if n_ang > 1:
         check_plausible(g.angles.step, "geometry.angles.step", path)
     if g.angles.width is not None:
         check_plausible(g.angles.width, "geometry.angles.width", path)
-    if n_ang * width > 360.0 + 1e-9:
-        raise ConfigError(f"{n_ang} elements of {width} deg span more than 360 deg", file=path,
-                          key="geometry.angles")
-    # before the labels and per-element arrays exist: a count of a billion must end in one
-    # line, not in the out-of-memory killer
-    from .memory_budget import check_elements
-
-    check_elements(n_rows, n_ang, path=path)
     labels = _label_list(row_labels, n_ang)
     angles = (float(g.angles.start), float(g.angles.step), int(n_ang),
               None if g.angles.width is None else float(g.angles.width))

@@ -28,9 +28,11 @@ PLAUSIBLE_RANGES = {
     "strap.axial_position": (-1.0, 1.0, "m", "a strap's position along a limb segment"),
     "strap.handle_angles": (-720.0, 720.0, "deg", "two turns either way"),
     "geometry.angles.start": (-360.0, 360.0, "deg", "one turn either way"),
-    # below 0.1 deg an element is a sliver (0.08 mm on a 45 mm arm) that carries nothing
-    "geometry.angles.step": (0.1, 360.0, "deg", "an element at least 0.1 deg wide"),
-    "geometry.angles.width": (0.1, 360.0, "deg", "an element at least 0.1 deg wide"),
+    # a pressure mat's cells are about 1 deg; below 1e-6 deg (a 1 nm element on a 45 mm
+    # arm) an element's area and stiffness fall under the solver's tolerances. Between, a
+    # fine grid is refused by its size (the memory check names geometry.angles.count)
+    "geometry.angles.step": (1e-6, 360.0, "deg", "an element at least 1e-6 deg wide"),
+    "geometry.angles.width": (1e-6, 360.0, "deg", "an element at least 1e-6 deg wide"),
     # the load cell sits on the cuff's mount, centimetres from the limb's axis
     "load_cell.position": (-2.0, 2.0, "m", "a load cell on the cuff's mount"),
     # 414 N/m: the human preset under a 9 mm indenter; 1 N/m is 400 times softer

@@ -147,10 +147,8 @@ MIN_CHUNK_ROWS = 16
 #: most samples per chunk: any larger hint means "the whole log", and a count beyond 64
 #: bits made pyarrow's Parquet reader fail (OverflowError)
 MAX_CHUNK_ROWS = 1 << 31
-#: a chunk of about this many values is fast and small (``simulate``'s default cap); its
-#: float64 arrays stay below glibc's largest dynamic mmap threshold (32 MiB), so that the
-#: allocator reuses their memory from chunk to chunk instead of mapping fresh pages
-PREFERRED_CHUNK_VALUES = 1 << 21
+#: a chunk of about this many values is fast and small (``simulate``'s default cap)
+PREFERRED_CHUNK_VALUES = 1 << 22
 #: fine meshes still get at least this many rows per chunk when memory allows
 PREFERRED_MIN_ROWS = 1024
 
