@@ -1,0 +1,85 @@
+"""The section figure of a config and one sample's forces (``phri simulate --plot``'s
+``<stem>_section`` file, ``phri compare``'s per-condition ones): the config's outlines and
+elements arranged in panels for :func:`phri_spring.reports.section_figures.section_figure`.
+
+A grid gives one panel per row. A free layout (``cuff.patches``) gives one panel per axial
+band: patches whose axial extents overlap (directly or through others) share a band, drawn
+on the outline at the band's mean position.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..io.atomic import atomic_file
+
+__all__ = ["section_panels", "patch_bands", "section_path", "write_section_plot"]
+
+
+def patch_bands(x, length) -> list:
+    """Index arrays of the axial bands of patches at ``x`` of axial size ``length`` [m]:
+    connected groups of overlapping extents (touching ones, a mat's rows, stay apart),
+    proximal first."""
+    x, length = np.asarray(x, float), np.asarray(length, float)
+    lo, hi = x - length / 2, x + length / 2
+    order = np.argsort(lo, kind="stable")
+    bands, cur, end = [], [], -np.inf
+    tol = 1e-9
+    for i in order:
+        if cur and lo[i] < end - tol:
+            cur.append(i)
+            end = max(end, hi[i])
+        else:
+            if cur:
+                bands.append(np.array(cur))
+            cur, end = [i], hi[i]
+    bands.append(np.array(cur))
+    return bands
+
+
+def section_panels(cfg, geometry, pressures_kpa) -> list:
+    """:class:`~phri_spring.reports.section_figures.SectionPanel` of every row (grid) or band
+    (free layout) of a config, with the elements' pressures (n,) [kPa]."""
+    from ..io.config_geometry import config_outlines
+    from ..reports.section_figures import SectionPanel
+
+    g = geometry
+    p = np.asarray(pressures_kpa, float)
+    yz, nrm = g.points[:, 1:], g.normals[:, 1:]
+    if g.free_layout:
+        bands = patch_bands(g.x, g.row_width)
+        outlines = config_outlines(cfg, [float(np.mean(g.x[b])) for b in bands])
+        groups = [(f"x = {1e3 * np.mean(g.x[b]):.0f} mm", b, o) for b, o in zip(bands, outlines)]
+    else:
+        outlines = config_outlines(cfg)
+        idx = g.row_index
+        groups = [(f"Row {r}, x = {1e3 * cfg.row_x[i]:.0f} mm", np.flatnonzero(idx == i),
+                   outlines[i]) for i, r in enumerate(g.row_labels)]
+    return [SectionPanel(title=t, outline=o, labels=tuple(g.labels[j] for j in b),
+                         points=yz[b], normals=nrm[b], theta=g.theta[b], span=g.span[b],
+                         pressures=p[b]) for t, b, o in groups]
+
+
+def section_path(plot_path) -> Path:
+    """``<stem>_section<suffix>`` beside a ``--plot`` file."""
+    plot_path = Path(plot_path)
+    return plot_path.with_name(f"{plot_path.stem}_section{plot_path.suffix}")
+
+
+def write_section_plot(cfg, forces, path, *, title: str = "", dpi: int = 150) -> Path:
+    """Draw the pressures of one sample's absolute forces (n,) [N] around the limb and
+    write the figure atomically (PNG, SVG or PDF by the extension)."""
+    from ..reports.compare_figures import save_figure
+    from ..reports.section_figures import section_figure
+
+    g = cfg.geometry()
+    pressures = np.asarray(forces, float) / g.areas / 1e3
+    fig = section_figure(section_panels(cfg, g, pressures),
+                         pain_threshold_kpa=cfg.pain_threshold_kpa,
+                         loadcell_yz=np.asarray(cfg.loadcell_position, float)[1:], title=title)
+    path = Path(path)
+    with atomic_file(path) as tmp:
+        save_figure(fig, tmp, dpi)
+    return path
