@@ -148,25 +148,26 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
     import matplotlib
 
     cmap = matplotlib.colormaps["YlOrRd"]
-    reach = rmax + max(_BAND_SHARE * rmax, threshold * scale if draw_threshold else 0.0)
-    lim = 1.08 * reach
 
     n = len(panels)
     ncols = min(n, 3 if n != 4 else 2)
     nrows = math.ceil(n / ncols)
     with figure_style():
-        fig = Figure(figsize=(2.9 * ncols + 1.1, 2.9 * nrows + 0.9), layout="constrained")
+        fig = Figure(figsize=(2.9 * ncols + 1.1, 3.1 * nrows + 1.3), layout="constrained")
         axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
         for ax in axes.flat[n:]:
             ax.set_visible(False)
+        drawn = []    # every point drawn [mm]: the panels' common limits
         for ax, p in zip(axes.flat, panels):
             out = np.asarray(p.outline, float) * 1e3
+            drawn.append(out)
             closed = np.vstack([out, out[:1]])
             ax.plot(closed[:, 0], closed[:, 1], color=_OUTLINE_COLOR, lw=1.0, zorder=2,
                     gid=OUTLINE_GID)
             if draw_threshold:
                 ring = _offset(out, threshold * scale)
                 ring = np.vstack([ring, ring[:1]])
+                drawn.append(ring)
                 ax.plot(ring[:, 0], ring[:, 1], color=_THRESHOLD_COLOR, lw=0.9, ls=(0, (4, 3)),
                         zorder=1)
             nrm = np.asarray(p.normals, float)
@@ -179,6 +180,7 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
                 pe = float(p.pressures[e])
                 if math.isfinite(pe) and pe > 0:
                     tip = arc - pe * scale * nrm[e]
+                    drawn.append(tip)
                     over = pe >= threshold
                     ax.add_patch(Polygon(np.vstack([arc, tip[::-1]]), closed=True,
                                          facecolor=cmap(norm(pe)),
@@ -193,6 +195,7 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
             ax.plot([0], [0], marker="+", color="#444444", ms=7, mew=1.0, zorder=5)
             if loadcell_yz is not None:
                 lc = np.asarray(loadcell_yz, float) * 1e3
+                drawn.append(lc[None, :])
                 ax.plot([lc[0]], [lc[1]], marker="s", ms=6, mfc="white", mec="black",
                         mew=1.2, zorder=6)
             fin = np.asarray(p.pressures, float)
@@ -200,8 +203,6 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
             peak = f"; peak {fin.max():.3g} kPa" if fin.size else ""
             ax.set_title(p.title + peak)
             ax.set_aspect("equal", adjustable="box")
-            ax.set_xlim(-lim, lim)
-            ax.set_ylim(-lim, lim)
             ax.tick_params(direction="out", length=3)
             for side in ("top", "right"):
                 ax.spines[side].set_visible(False)
@@ -209,14 +210,22 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
             ax.set_xlabel("y [mm]")
         for ax in axes[:, 0]:
             ax.set_ylabel("z [mm]")
+        pts = np.vstack(drawn)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        pad = 0.06 * float(np.max(hi - lo))
+        lo, hi = lo - pad, hi + pad
+        lo[1] -= 0.08 * float(np.max(hi - lo))      # room for the scale bar
+        axes.flat[0].set_xlim(lo[0], hi[0])
+        axes.flat[0].set_ylim(lo[1], hi[1])
         # scale bar: a round pressure's band length, in the first panel's lower right corner
-        bar_kpa = _nice(0.5 * ref)
+        bar_kpa = _nice(ref)
         length = bar_kpa * scale
         ax0 = axes.flat[0]
-        x1, y0 = 0.97 * lim, -0.95 * lim
+        span_y = hi[1] - lo[1]
+        x1, y0 = hi[0] - 0.03 * (hi[0] - lo[0]), lo[1] + 0.04 * span_y
         ax0.plot([x1 - length, x1], [y0, y0], color="black", lw=2.0, solid_capstyle="butt",
                  zorder=6)
-        ax0.text(x1 - length / 2, y0 + 0.03 * lim, f"{bar_kpa:g} kPa", ha="center",
+        ax0.text(x1 - length / 2, y0 + 0.015 * span_y, f"{bar_kpa:g} kPa", ha="center",
                  va="bottom", fontsize=7.5)
         sm = ScalarMappable(norm=norm, cmap=cmap)
         cb = fig.colorbar(sm, ax=axes, shrink=0.8 if nrows > 1 else 0.9, pad=0.02,
@@ -227,7 +236,7 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
         handles = [Line2D([], [], color=_OUTLINE_COLOR, lw=1.0, label="skin outline"),
                    Line2D([], [], color=_ARC_COLOR, lw=2.4, label="cuff element"),
                    Patch(facecolor=cmap(0.55), edgecolor="#5a5a5a", lw=0.4,
-                         label="pressure (outward)")]
+                         label="pressure (length ∝ kPa)")]
         if draw_threshold:
             handles.append(Line2D([], [], color=_THRESHOLD_COLOR, lw=0.9, ls=(0, (4, 3)),
                                   label=f"pain threshold {threshold:g} kPa"))
