@@ -172,7 +172,7 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
                         zorder=1)
             nrm = np.asarray(p.normals, float)
             nrm = nrm / np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-300)
-            many = len(p.labels) > 16
+            many = len(p.labels) > 12    # labels would overlap
             for e, label in enumerate(p.labels):
                 arc = element_arc(out, float(p.theta[e]), float(p.span[e]))
                 ax.plot(arc[:, 0], arc[:, 1], color=_ARC_COLOR, lw=2.4,
