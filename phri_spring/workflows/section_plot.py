@@ -15,7 +15,8 @@ import numpy as np
 
 from ..io.atomic import atomic_file
 
-__all__ = ["section_panels", "patch_bands", "section_path", "write_section_plot"]
+__all__ = ["section_panels", "patch_bands", "section_path", "write_section_plot",
+           "write_compare_sections"]
 
 
 def patch_bands(x, length) -> list:
@@ -83,3 +84,35 @@ def write_section_plot(cfg, forces, path, *, title: str = "", dpi: int = 150) ->
     with atomic_file(path) as tmp:
         save_figure(fig, tmp, dpi)
     return path
+
+
+def write_compare_sections(result, tmp: Path, outdir: Path, dpi: int) -> list:
+    """``sections/<arm>_peak.png``: per arm model, the pressure around the limb in the
+    trial and condition where that arm predicts its highest pressure (one figure per arm,
+    whatever the number of trials), for :func:`~.compare.write_compare` (``result``, a
+    :class:`~.compare.CompareResult`) writing into ``tmp`` what lands in ``outdir``."""
+    cfg = result.config
+    inv_area = 1.0 / (1e3 * cfg.geometry().areas)
+    out = []
+    best = {}
+    for tc in result.trials:
+        for j, c in enumerate(tc.conditions):
+            if j == tc.baseline_index:
+                continue
+            for a in result.arms:
+                p = np.asarray(tc.simulated_abs[a][j], float) * inv_area
+                if np.isfinite(p).any() and (a not in best or np.nanmax(p) > best[a][0]):
+                    best[a] = (float(np.nanmax(p)), tc, j, c)
+    if best:
+        (tmp / "sections").mkdir()
+    for a in result.arms:
+        if a not in best:
+            continue
+        _, tc, j, c = best[a]
+        s = tc.spec
+        name = f"{a}_peak.png"          # arm names are file-safe
+        write_section_plot(cfg, tc.simulated_abs[a][j], tmp / "sections" / name, dpi=dpi,
+                           title=f"{a} arm, its highest pressure: {s.experiment} "
+                                 f"{s.direction}, trial {s.trial}, condition {c}")
+        out.append(outdir / "sections" / name)
+    return out
