@@ -232,7 +232,8 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
                           aspect=25)
         cb.set_label(f"{pressure_name} [kPa]")
         if threshold <= vmax:
-            cb.ax.axhline(threshold, color=_THRESHOLD_COLOR, lw=1.5, ls=(0, (4, 2)))
+            # black: the threshold's own red would vanish in the scale's dark reds
+            cb.ax.axhline(threshold, color="black", lw=1.5, ls=(0, (4, 2)), zorder=5)
         handles = [Line2D([], [], color=_OUTLINE_COLOR, lw=1.0, label="skin outline"),
                    Line2D([], [], color=_ARC_COLOR, lw=2.4, label="cuff element"),
                    Patch(facecolor=cmap(0.55), edgecolor="#5a5a5a", lw=0.4,
