@@ -246,3 +246,17 @@ def test_maxpool_keeps_the_peak_samples_forces(tmp_path):
     labels = list(cfg.labels)
     np.testing.assert_allclose(pool.result().peak_forces, df[labels].iloc[i].to_numpy(),
                                rtol=1e-12, atol=1e-12)
+
+
+def test_no_pressure_and_missing_values():
+    """Nothing pressed (all lifted off) and NaN (no answer): no band, the panels still drawn,
+    the scale taken from the pain threshold."""
+    geom = cuff_geometry([0.0], 0.05, 0.02, 0, 90, 4)
+    outlines = outlines_at([0.0], [0.0], radius=[0.05])
+    for p in (np.zeros(4), np.array([np.nan, 0.0, np.nan, 0.0])):
+        fig = section_figure(panels_of(geom, outlines, p), pain_threshold_kpa=100)
+        assert len(visible_axes(fig)) == 1 and bands(fig) == {}
+        texts = [t.get_text() for t in fig.legends[0].get_texts()]
+        assert "pain threshold 100 kPa" in texts
+    with pytest.raises(ValueError):
+        section_figure([], pain_threshold_kpa=100)
