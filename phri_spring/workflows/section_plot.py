@@ -91,6 +91,8 @@ def write_compare_sections(result, tmp: Path, outdir: Path, dpi: int) -> list:
     trial and condition where that arm predicts its highest pressure (one figure per arm,
     whatever the number of trials), for :func:`~.compare.write_compare` (``result``, a
     :class:`~.compare.CompareResult`) writing into ``tmp`` what lands in ``outdir``."""
+    from ..reports.figure_base import ARM_NAMES
+
     cfg = result.config
     inv_area = 1.0 / (1e3 * cfg.geometry().areas)
     out = []
@@ -112,7 +114,7 @@ def write_compare_sections(result, tmp: Path, outdir: Path, dpi: int) -> list:
         s = tc.spec
         name = f"{a}_peak.png"          # arm names are file-safe
         write_section_plot(cfg, tc.simulated_abs[a][j], tmp / "sections" / name, dpi=dpi,
-                           title=f"{a} arm, its highest pressure: {s.experiment} "
+                           title=f"{ARM_NAMES.get(a, a)}, its highest pressure: {s.experiment} "
                                  f"{s.direction}, trial {s.trial}, condition {c}")
         out.append(outdir / "sections" / name)
     return out
