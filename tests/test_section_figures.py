@@ -260,3 +260,72 @@ def test_no_pressure_and_missing_values():
         assert "pain threshold 100 kPa" in texts
     with pytest.raises(ValueError):
         section_figure([], pain_threshold_kpa=100)
+
+
+NODE = __import__("shutil").which("node")
+
+_DOM_STUB = """
+const calls = {};
+function element(id) {
+  const rec = {fills: [], path: []};
+  calls[id] = rec;
+  const ctx = new Proxy({}, {get(t, name) {
+    if (name in t) return t[name];
+    if (name === "beginPath") return () => { rec.path = []; };
+    if (name === "moveTo" || name === "lineTo") return (x, y) => { rec.path.push([x, y]); };
+    if (name === "fill") return () => { rec.fills.push({path: rec.path.slice(),
+                                                         style: t.fillStyle}); };
+    return () => {};
+  }, set(t, name, v) { t[name] = v; return true; }});
+  return {width: 520, height: 360, getContext: () => ctx, setAttribute() {},
+          querySelectorAll: () => [], innerHTML: "", textContent: "", className: ""};
+}
+const els = {};
+const document = {getElementById: id => (els[id] = els[id] || element(id)),
+                  querySelectorAll: () => [], querySelector: () => element("q")};
+const window = {};
+"""
+
+
+@pytest.mark.skipif(NODE is None, reason="node is not installed (the page's script is run in it)")
+def test_dashboard_section_view(tmp_path):
+    """The live page's view of the pressure around the limb draws, in the panel of the
+    peak's row, one band per pressed element, its length proportional to the pressure."""
+    import json
+    import re
+    import subprocess
+
+    from phri_spring.io.config import load_config
+    from phri_spring.io.live_dashboard import page_text
+    from phri_spring.workflows.section_plot import live_section_meta
+
+    cfg = load_config(HARMONY_CONFIG)
+    geom = cfg.geometry()
+    kpa = np.linspace(5.0, 60.0, geom.n)          # below the threshold: no band capped
+    kpa[geom.row_index == 2] *= 0.5               # the peak in row B (the last of B)
+    kpa[8] = 0.0                                  # B1 lifted off
+    assert cfg.pain_threshold_kpa > kpa.max()
+    peak = int(np.argmax(kpa))
+    assert geom.labels[peak] == "B6"
+    meta = {"labels": list(geom.labels), "row_labels": list(geom.row_labels), "n_angles": 7,
+            "alarm": None, "title": "t", "section": live_section_meta(cfg, geom)}
+    snap = {"sample": 1, "time": 0.0, "forces": [0.0] * geom.n,
+            "absolute_forces": (kpa * 1e3 * geom.areas).tolist(), "wrench": [0.0] * 6,
+            "peak_pressure_kPa": float(kpa[peak]), "peak_element": "B6", "ratio": 0.5,
+            "contacts_in_touch": 20, "converged": True, "alarm": False,
+            "health": {"samples": 1, "lost": 0, "malformed": 0, "gaps": 0, "rate_hz": None,
+                       "processing_ms": None, "age_ms": None}}
+    script = re.search(r"<script>(.*)</script>", page_text(), re.S).group(1)
+    script = script.replace("/*PHRI_INIT*/null", json.dumps({"meta": meta, "snapshot": snap}))
+    (tmp_path / "page.js").write_text(_DOM_STUB + script +
+                                      "\nconsole.log(JSON.stringify(calls.section.fills));\n")
+    res = subprocess.run([NODE, str(tmp_path / "page.js")], capture_output=True, text=True,
+                         timeout=60)
+    assert res.returncode == 0, res.stderr
+    fills = json.loads(res.stdout)
+    row_b = [e for e in range(7, 14) if kpa[e] > 0]
+    assert len(fills) == len(row_b)               # the panel of row B, B1 without a band
+    # a band: the arc's 9 points, then its tip's in reverse; first to last = the length
+    lengths = [math.dist(f["path"][0], f["path"][-1]) for f in fills]
+    np.testing.assert_allclose(np.array(lengths) / kpa[row_b],
+                               lengths[0] / kpa[row_b[0]], rtol=2e-3)

@@ -20,8 +20,8 @@ from matplotlib.figure import Figure
 
 from .figure_base import figure_style
 
-__all__ = ["SectionPanel", "section_figure", "element_arc", "BAND_GID", "ARC_GID",
-           "OUTLINE_GID", "MAX_PANELS"]
+__all__ = ["SectionPanel", "section_figure", "element_arc", "offset_outline", "BAND_GID",
+           "ARC_GID", "OUTLINE_GID", "MAX_PANELS"]
 
 #: gid of the artists a test or a caller can find: the outline, an element's arc, its band
 OUTLINE_GID, ARC_GID, BAND_GID = "section-outline", "section-arc", "section-band"
@@ -86,7 +86,7 @@ def _nice(v: float) -> float:
     return max(m * e for m in (1, 2, 2.5, 5, 10) if m * e <= v * (1 + 1e-12))
 
 
-def _offset(outline: np.ndarray, d: float) -> np.ndarray:
+def offset_outline(outline: np.ndarray, d: float) -> np.ndarray:
     """The closed outline moved outward by d [same unit] along its vertex normals."""
     nxt, prv = np.roll(outline, -1, axis=0), np.roll(outline, 1, axis=0)
     t = nxt - prv
@@ -165,7 +165,7 @@ def section_figure(panels, *, pain_threshold_kpa: float, loadcell_yz=None, title
             ax.plot(closed[:, 0], closed[:, 1], color=_OUTLINE_COLOR, lw=1.0, zorder=2,
                     gid=OUTLINE_GID)
             if draw_threshold:
-                ring = _offset(out, threshold * scale)
+                ring = offset_outline(out, threshold * scale)
                 ring = np.vstack([ring, ring[:1]])
                 drawn.append(ring)
                 ax.plot(ring[:, 0], ring[:, 1], color=_THRESHOLD_COLOR, lw=0.9, ls=(0, (4, 3)),

@@ -16,7 +16,7 @@ import numpy as np
 from ..io.atomic import atomic_file
 
 __all__ = ["section_panels", "patch_bands", "section_path", "write_section_plot",
-           "write_compare_sections"]
+           "write_compare_sections", "live_section_meta"]
 
 
 def patch_bands(x, length) -> list:
@@ -117,4 +117,37 @@ def write_compare_sections(result, tmp: Path, outdir: Path, dpi: int) -> list:
                            title=f"{ARM_NAMES.get(a, a)}, its highest pressure: {s.experiment} "
                                  f"{s.direction}, trial {s.trial}, condition {c}")
         out.append(outdir / "sections" / name)
+    return out
+
+
+def live_section_meta(cfg, geometry, max_points: int = 180) -> dict:
+    """What ``phri live --dashboard`` draws its view of the pressure around the limb from
+    (JSON-able, lengths in mm): per panel (row or band of patches) the outline (at most
+    ``max_points`` vertices), the pain threshold's line (the outline moved outward by the
+    band length of the threshold) and each element's arc and outward unit normal; per
+    element 1 / (1000 A_e) [kPa/N]."""
+    from ..reports.section_figures import element_arc, offset_outline
+
+    g = geometry
+    panels = section_panels(cfg, g, np.zeros(g.n))
+    index = {lab: i for i, lab in enumerate(g.labels)}
+    rmax = 1e3 * max(float(np.hypot(*np.asarray(p.outline).T).max()) for p in panels)
+    band = 0.3 * rmax                    # the band length of a pressure at the threshold
+    out = {"threshold_kpa": float(cfg.pain_threshold_kpa), "band_mm": round(band, 3),
+           "loadcell": np.round(1e3 * np.asarray(cfg.loadcell_position, float)[1:],
+                                3).tolist(),
+           "inv_area_kpa": (1.0 / (1e3 * g.areas)).tolist(), "panels": []}
+    for p in panels:
+        yz = 1e3 * np.asarray(p.outline, float)
+        step = max(1, int(np.ceil(len(yz) / max_points)))
+        nrm = -np.asarray(p.normals, float)
+        nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+        out["panels"].append({
+            "title": p.title, "outline": np.round(yz[::step], 3).tolist(),
+            "ring": np.round(offset_outline(yz, band)[::step], 3).tolist(),
+            "elements": [{"index": index[lab],
+                          "arc": np.round(element_arc(yz, float(p.theta[e]),
+                                                      float(p.span[e]), n=9), 3).tolist(),
+                          "out": np.round(nrm[e], 5).tolist()}
+                         for e, lab in enumerate(p.labels)]})
     return out
