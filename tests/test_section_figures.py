@@ -329,3 +329,27 @@ def test_dashboard_section_view(tmp_path):
     lengths = [math.dist(f["path"][0], f["path"][-1]) for f in fills]
     np.testing.assert_allclose(np.array(lengths) / kpa[row_b],
                                lengths[0] / kpa[row_b[0]], rtol=2e-3)
+
+
+@pytest.mark.parametrize("name", ["examples/pressure_mat_16x16.yaml",
+                                  "examples/scan/upper_arm_scan.yaml"])
+def test_live_section_meta(name):
+    """The dashboard's section data for a free layout and a scan: JSON as sent, every element
+    in exactly one panel, outlines bounded in size and on the geometry's outlines."""
+    import json
+
+    from phri_spring.io.config import load_config
+    from phri_spring.io.config_geometry import config_outlines
+    from phri_spring.workflows.section_plot import live_section_meta
+
+    cfg = load_config(REPO / name)
+    geom = cfg.geometry()
+    meta = json.loads(json.dumps(live_section_meta(cfg, geom), allow_nan=False))
+    idx = sorted(e["index"] for p in meta["panels"] for e in p["elements"])
+    assert idx == list(range(geom.n))
+    assert all(len(p["outline"]) <= 180 for p in meta["panels"])
+    np.testing.assert_allclose(meta["inv_area_kpa"], 1 / (1e3 * geom.areas), rtol=1e-12)
+    if cfg.scan is not None:
+        for p, yz in zip(meta["panels"], config_outlines(cfg)):
+            step = math.ceil(len(yz) / 180)
+            np.testing.assert_allclose(p["outline"], 1e3 * np.asarray(yz)[::step], atol=1e-3)
