@@ -373,6 +373,7 @@ def outlines_at(x, row_x, sections=None, radius=None, k: int = 256) -> list:
         Points per outline.
     """
     row_x = np.atleast_1d(np.asarray(row_x, dtype=float))
+    theta = 2.0 * math.pi * np.arange(k) / k
     if sections is None:
         if radius is None:
             raise ValueError("outlines_at: expected sections or radius")
@@ -381,15 +382,18 @@ def outlines_at(x, row_x, sections=None, radius=None, k: int = 256) -> list:
     else:
         if len(sections) != len(row_x):
             raise ValueError(f"outlines_at: {len(sections)} sections for {len(row_x)} rows")
-        theta = 2.0 * math.pi * np.arange(k) / k
         rho_rows = np.array([s.rho(theta) for s in sections])
-    theta = 2.0 * math.pi * np.arange(k) / k
     order = np.argsort(row_x, kind="stable")
     xs, rs = row_x[order], rho_rows[order]
     ray = np.column_stack([np.cos(theta), np.sin(theta)])
     out = []
     for xv in np.atleast_1d(np.asarray(x, dtype=float)):
-        rho = np.array([np.interp(xv, xs, rs[:, i]) for i in range(k)]) if len(xs) > 1 \
-            else rs[0]
+        if len(xs) == 1:
+            rho = rs[0]
+        else:   # linear between the two rows around xv, the nearest row's beyond the ends
+            i = int(np.clip(np.searchsorted(xs, xv, side="right") - 1, 0, len(xs) - 2))
+            gap = xs[i + 1] - xs[i]
+            lam = min(max((xv - xs[i]) / gap, 0.0), 1.0) if gap > 0 else 0.0
+            rho = (1.0 - lam) * rs[i] + lam * rs[i + 1]
         out.append(rho[:, None] * ray)
     return out
