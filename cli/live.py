@@ -141,9 +141,12 @@ def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, dura
                   duration=duration, max_samples=max_samples,
                   notify=notify)
     if dash is not None:
+        from phri_spring.workflows.section_plot import live_section_meta
+
         dash.set_layout(run.labels, cfg.row_labels, cfg.angle_count, alarm=alarm,
                         title=f"phri live: {cfg.path.name if cfg.path else 'config'}, {arm} arm, "
-                              f"source {source}")
+                              f"source {source}",
+                        section=live_section_meta(cfg, cfg.geometry()))
         run.subscribe(dash.observe)
         dash.start()
         notify(f"dashboard on {dash.url}")

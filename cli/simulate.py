@@ -38,7 +38,9 @@ from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
 @click.option("--plot", "plot", default=None, metavar="FILE",
               help="Also draw the whole log at a glance (.png, .svg or .pdf): peak pressure "
                    "[kPa] with the pain threshold, and every element's force [N] as a heat "
-                   "map, both max-pooled over time (no peak lost; bounded memory).")
+                   "map, both max-pooled over time (no peak lost; bounded memory); and, "
+                   "in FILE's stem + '_section', the pressure around the limb in the sample "
+                   "of the peak, row by row.")
 @click.option("--chunk-rows", type=click.IntRange(min=1), default=65536, show_default=True,
               help="Samples per chunk (bounds memory on long logs); a hint: fewer rows are "
                    "used on fine meshes and when the machine's memory is short.")
@@ -107,6 +109,9 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         from phri_spring.workflows.plotting import MaxPool, check_plot_path
 
         check_plot_path(plot, [log, config, output])
+        from phri_spring.workflows.section_plot import section_path
+
+        section = check_plot_path(section_path(plot), [log, config, output])
         config = load_config(config)
         # the pool and its figure hold about 2,000 groups per element: check before making it
         from phri_spring.io.logs import table_format
@@ -130,9 +135,16 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
 
         from phri_spring.workflows.plotting import write_simulate_plot
 
-        write_simulate_plot(pool.result(), plot, labels=summary.labels,
+        pooled = pool.result()
+        write_simulate_plot(pooled, plot, labels=summary.labels,
                             pain_threshold_kpa=config.pain_threshold_kpa,
                             title=f"{Path(log).name}: {arm} arm", layout=config.patches)
+        if pooled.peak_forces is not None:
+            from phri_spring.workflows.section_plot import write_section_plot
+
+            write_section_plot(config, pooled.peak_forces, section,
+                               title=f"{Path(log).name}: {arm} arm, the sample of the peak "
+                                     f"pressure (t = {pooled.peak_time:g} s)")
     if summary.not_converged and summary.friction_coefficient is not None:
         warn(no_answer_text(summary))
     elif summary.not_converged:

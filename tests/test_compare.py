@@ -435,6 +435,9 @@ def test_write_compare_writes_every_figure(cfg_path, tmp_path):
                     "I-Act_h_2_L2.png"]
     assert sorted(p.name for p in (out / "wrench").iterdir()) == ["I-Act_h_1.png",
                                                                   "I-Act_h_2.png"]
+    # the pressure around the limb where each arm predicts its highest pressure
+    assert sorted(p.name for p in (out / "sections").iterdir()) == ["compliant_peak.png",
+                                                                    "rigid_peak.png"]
     for name in ("rmse.csv", "summary.csv", "loads.csv", "conditions.csv", "rmse_bars.png",
                  "report.md"):
         assert (out / name).stat().st_size > 0

@@ -32,7 +32,8 @@ def test_parallel_figures_are_the_serial_ones(tmp_path, result):
     one = write_compare(result, tmp_path / "one", workers=1, dpi=40)
     two = write_compare(result, tmp_path / "two", workers=2, dpi=40)
     a, b = _files(tmp_path / "one"), _files(tmp_path / "two")
-    assert len([n for n in a if n.endswith(".png")]) == 1 + 4 + 12     # bars, wrench, heat maps
+    # bars, wrench, heat maps, a section per arm
+    assert len([n for n in a if n.endswith(".png")]) == 1 + 4 + 12 + 2
     assert a.keys() == b.keys()
     for name in a:
         assert a[name] == b[name], name

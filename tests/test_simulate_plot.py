@@ -78,7 +78,10 @@ def test_plot_is_written(tmp_path, ext, magic):
     assert res.exit_code == 0, res.stderr
     assert plot.read_bytes().startswith(magic)
     assert f"plot {plot}" in res.stderr
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["f.parquet", plot.name])
+    section = tmp_path / f"plot_section{ext}"            # the pressure around the limb
+    assert section.read_bytes().startswith(magic)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["f.parquet", plot.name,
+                                                                 section.name])
 
 
 def test_plot_peak_is_the_forces_files_peak(tmp_path):

@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import ConfigError
 
 __all__ = ["geometry_sections", "per_row_values", "check_scan_alone", "read_scan",
-           "scan_geometry"]
+           "scan_geometry", "config_outlines"]
 
 
 def per_row_values(value, n_rows, path, key) -> np.ndarray:
@@ -166,3 +166,19 @@ def _one_section(spec, path, key):
         return OutlineSection(pts)
     except SectionError as exc:
         raise ConfigError(str(exc), file=path, key=f"{key}.{kind}") from None
+
+
+def config_outlines(cfg, x=None, k: int = 256) -> list:
+    """The skin outline (k, 2) of (y, z) [m] of a config's limb at each axial position ``x``
+    (default: its rows' ``row_x``), whatever the geometry: circles of ``geometry.radius``,
+    ``geometry.section`` (per row, interpolated in x between rows) or a scan (the scan's
+    cut by each row's plane, as the elements were placed on it; rows only)."""
+    from ..physics.sections import outlines_at
+
+    if cfg.scan is not None:
+        if x is not None:
+            raise ValueError("config_outlines: a scan's outlines are known at its rows only")
+        return [np.asarray(yz, dtype=float) for yz in cfg.scan.elements.outlines]
+    row_x = cfg.row_x if cfg.patches is None else cfg.patch_row_x
+    radius = cfg.radius if cfg.sections is None else None
+    return outlines_at(row_x if x is None else x, row_x, cfg.sections, radius, k=k)

@@ -83,6 +83,7 @@ def snapshot_json(snap, *, age_s: float = 0.0) -> dict:
         "sample": int(h.samples),
         "time": _num(snap.time),
         "forces": [_num(v) for v in np.asarray(snap.forces, dtype=float)],
+        "absolute_forces": [_num(v) for v in np.asarray(snap.absolute_forces, dtype=float)],
         "wrench": [_num(v) for v in np.asarray(snap.wrench, dtype=float)],
         "peak_pressure_kPa": _num(snap.peak_pressure_kpa),
         "peak_element": snap.peak_element,
@@ -227,14 +228,19 @@ class LiveDashboard:
         return f"http://{host}:{self.port}/"
 
     def set_layout(self, labels: Sequence[str], row_labels: Sequence[str], n_angles: int, *,
-                   alarm: Optional[float] = None, title: str = "phri live") -> None:
-        """The element grid (labels row-major) and what the page's titles say."""
+                   alarm: Optional[float] = None, title: str = "phri live",
+                   section: Optional[dict] = None) -> None:
+        """The element grid (labels row-major) and what the page's titles say; ``section``:
+        the limb's outlines and elements for the page's view of the pressure around the
+        limb (:func:`phri_spring.workflows.section_plot.live_section_meta`), None: no view."""
         labels = [str(x) for x in labels]
         rows, n = [str(r) for r in row_labels], int(n_angles)
         if len(rows) * n != len(labels):          # not a rows x angles grid: one row
             rows, n = [""], len(labels)
         self.meta = {"labels": labels, "row_labels": rows, "n_angles": n,
                      "alarm": None if alarm is None else float(alarm), "title": str(title)}
+        if section is not None:
+            self.meta["section"] = section
 
     def start(self) -> "LiveDashboard":
         """Serve on a daemon thread (the process can end without stopping it)."""

@@ -29,7 +29,7 @@ from scipy.interpolate import CubicSpline
 
 __all__ = ["SectionError", "Section", "CircleSection", "EllipseSection", "OutlineSection",
            "StrapSection", "RHO_RANGE_M", "MIN_OUTLINE_POINTS", "TAPER_LIMIT_DEG",
-           "check_taper", "check_rho_range"]
+           "check_taper", "check_rho_range", "outlines_at"]
 
 #: distance of a limb's skin from its axis we accept [m]: a child's wrist is about
 #: 0.02 m, a large thigh about 0.15 m (a 45 m "limb" is a unit mistake)
@@ -348,3 +348,52 @@ class StrapSection:
         norm = math.hypot(ty, tz)
         return (np.array([float(x), rho * c, rho * s]),
                 np.array([0.0, ty / norm, tz / norm]))
+
+
+def outlines_at(x, row_x, sections=None, radius=None, k: int = 256) -> list:
+    """The skin outline at each axial position of ``x``, as (k, 2) arrays of (y, z) [m].
+
+    The outline is sampled on k rays theta = 2 pi i / k (so its vertices are the section's
+    points on those rays). At a row's own position it is that row's section; between two
+    rows the distance from the axis on each ray is interpolated linearly in x, and beyond
+    the ends it is the nearest row's (as a free layout's patches are placed, docs/model.md
+    section 14).
+
+    Parameters
+    ----------
+    x : array_like, shape (m,)
+        Axial positions [m] (e.g. the rows' own ``row_x``, or a band of patches' centre).
+    row_x : array_like, shape (R,)
+        Where the sections are given [m].
+    sections : sequence of Section, length R, optional
+        The outlines there; None for circles of ``radius``.
+    radius : array_like, shape (R,), optional
+        The circles' radii [m] when ``sections`` is None.
+    k : int
+        Points per outline.
+    """
+    row_x = np.atleast_1d(np.asarray(row_x, dtype=float))
+    theta = 2.0 * math.pi * np.arange(k) / k
+    if sections is None:
+        if radius is None:
+            raise ValueError("outlines_at: expected sections or radius")
+        rho_rows = np.outer(np.broadcast_to(np.asarray(radius, float), row_x.shape),
+                            np.ones(k))
+    else:
+        if len(sections) != len(row_x):
+            raise ValueError(f"outlines_at: {len(sections)} sections for {len(row_x)} rows")
+        rho_rows = np.array([s.rho(theta) for s in sections])
+    order = np.argsort(row_x, kind="stable")
+    xs, rs = row_x[order], rho_rows[order]
+    ray = np.column_stack([np.cos(theta), np.sin(theta)])
+    out = []
+    for xv in np.atleast_1d(np.asarray(x, dtype=float)):
+        if len(xs) == 1:
+            rho = rs[0]
+        else:   # linear between the two rows around xv, the nearest row's beyond the ends
+            i = int(np.clip(np.searchsorted(xs, xv, side="right") - 1, 0, len(xs) - 2))
+            gap = xs[i + 1] - xs[i]
+            lam = min(max((xv - xs[i]) / gap, 0.0), 1.0) if gap > 0 else 0.0
+            rho = (1.0 - lam) * rs[i] + lam * rs[i + 1]
+        out.append(rho[:, None] * ray)
+    return out

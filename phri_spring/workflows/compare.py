@@ -432,7 +432,9 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
     ``report.md`` and, with ``figures``, ``rmse_bars.png`` (Fig. 7),
     ``heatmaps/<experiment>_<direction>_<trial>_<condition>.png`` for every
     trial and non-baseline condition (Fig. 8b) and
-    ``wrench/<experiment>_<direction>_<trial>.png`` (Fig. 8a).
+    ``wrench/<experiment>_<direction>_<trial>.png`` (Fig. 8a) and
+    ``sections/<arm>_peak.png`` (the pressure around the limb where each arm predicts
+    its highest pressure).
 
     Everything is written into a temporary folder beside ``outdir`` that
     replaces it at the end: a failed run leaves nothing behind. The figures are
@@ -516,6 +518,9 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
             jobs.sort(key=lambda j: (j[0] == "heatmap", _scale(j[2]) if j[0] == "heatmap"
                                      else 0.0))
             render_figures(jobs, dpi, workers=workers, local=local)
+            from .section_plot import write_compare_sections
+
+            written.extend(write_compare_sections(result, tmp, outdir, dpi))
         report = compare_report(
             cfg, result.manifest, arms=result.arms, n_trials=len(result.trials),
             baselines=sorted({t.spec.baseline for t in result.trials}),

@@ -53,6 +53,8 @@ class PooledLog:
     peak_kpa, peak_time, peak_element : float, float, int
         The largest peak pressure of the whole log [kPa], the time of its first
         sample [s] and the element it is on (column of ``forces``; -1 if none).
+    peak_forces : ndarray, shape (n,), or None
+        Every element's force [N] in that sample (the section figure's); None if none.
     """
 
     time_start: np.ndarray
@@ -64,6 +66,7 @@ class PooledLog:
     peak_kpa: float
     peak_time: float
     peak_element: int
+    peak_forces: Optional[np.ndarray] = None
 
 
 class MaxPool:
@@ -100,6 +103,7 @@ class MaxPool:
         self._fill = 0         # samples in the open group (index self._k)
         self.samples = 0
         self._peak = (-math.inf, math.nan, -1)
+        self._peak_forces = None
 
     def __call__(self, time, forces, peak_pressure) -> None:
         t = np.asarray(time, dtype=float)
@@ -117,6 +121,7 @@ class MaxPool:
                 fp = f[j]
                 e = int(np.nanargmax(fp)) if np.isfinite(fp).any() else -1
                 self._peak = (float(p[j]), float(t[j]), e)
+                self._peak_forces = fp.copy()
         self.samples += m
         i = 0
         while i < m:
@@ -161,7 +166,9 @@ class MaxPool:
                          forces=self._f[:k].copy(), peak_pressure=self._p[:k].copy(),
                          samples_per_group=self.width, samples=self.samples,
                          peak_kpa=peak if math.isfinite(peak) else math.nan,
-                         peak_time=t_peak, peak_element=e)
+                         peak_time=t_peak, peak_element=e,
+                         peak_forces=None if self._peak_forces is None
+                         else self._peak_forces.copy())
 
 
 def check_plot_path(path, inputs=(), option: str = "--plot") -> Path:
