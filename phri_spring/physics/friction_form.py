@@ -13,12 +13,12 @@ from functools import cached_property
 import numpy as np
 from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
 
+from .friction_states import RELEASED, SLIDING, STUCK
 from .geometry import element_jacobians
 
 __all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "interface_mu",
            "RELEASED", "STUCK", "SLIDING", "STATE_RTOL"]
 
-RELEASED, STUCK, SLIDING = 0, 1, 2
 #: relative tolerance of the state checks (forces against the sample's force scale)
 STATE_RTOL = 1e-9
 

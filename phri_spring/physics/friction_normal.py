@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .friction_form import STUCK, RELEASED
+from .friction_states import RELEASED, STUCK
 from .spd6 import spd_solve_batched
 
 __all__ = ["NormalResponse", "block_nonlinear", "frictionless_unheld", "BLOCK_RTOL"]
