@@ -218,15 +218,24 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
     J0[:N] = -rho[:, None] * dRel
     J0[N:, :N] = T.T
 
-    def jacobian(info):
+    def jacobian(info, keep=None):
+        """J, or only its rows ``keep`` (a mask; the rows of every patch left out must be
+        identity rows, see :func:`_reduced_step`)."""
         touch, slide, yh, ny, Rt = info
-        J = J0.copy()
+        if keep is None:
+            J, at = J0.copy(), np.arange(N + 6)
+        else:
+            J, at = J0[keep], np.cumsum(keep) - 1     # at: a kept row's place in J
+            slide = slide & touch                     # the others' rows are left out
         off = ~touch
+        if keep is not None:
+            off &= keep[nrm]
         if off.any():
             # released: P_e = 0 on the normal and rotation rows
-            rows = nrm[off] if d != 6 else np.concatenate([nrm[off], rot[off].ravel()])
+            cols = nrm[off] if d != 6 else np.concatenate([nrm[off], rot[off].ravel()])
+            rows = at[cols]
             J[rows] = 0.0
-            J[rows, rows] = 1.0
+            J[rows, cols] = 1.0
         sl = np.flatnonzero(slide)
         if sl.size:
             # phi_t = P_t - R_t yh: d = dP_t - yh mu d yn [touch] - R_t/|y| (I - yh yh^T) dy
@@ -240,7 +249,7 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
             proj = np.eye(2)[None] - yh[sl, :, None] * yh[sl, None, :]
             block = -yh[sl, :, None] * dyn[:, None, :] - g[:, None, None] * (proj @ dy)
             block[np.arange(sl.size)[:, None], np.arange(2)[None, :], tan[sl]] += 1.0
-            J[tan[sl].ravel()] = block.reshape(-1, N + 6)
+            J[at[tan[sl].ravel()]] = block.reshape(-1, N + 6)
         return J
 
     def classes(info):
@@ -257,12 +266,15 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
             break
         history.append(res)
         its += 1
-        J = jacobian(info)
-        dx = _reduced_step(J, phi, dof, info) if _REDUCE else None
+        dx = None
+        if _REDUCE:
+            keep = _kept_rows(info, d)
+            dx = _reduced_step(jacobian(info, keep), phi, keep)
         if dx is None:
+            J = jacobian(info)
             dx = lu_solve_or_none(J, -phi)
-        if dx is None:
-            dx = np.linalg.lstsq(J, -phi, rcond=1e-12)[0]
+            if dx is None:
+                dx = np.linalg.lstsq(J, -phi, rcond=1e-12)[0]
         before = classes(info)
         # a released patch's tangential rows are P_t = 0 unless its trial slip is exactly 0
         linear = not (before == SLIDING).any() and bool(np.all(info[0] | info[1]))
@@ -285,25 +297,28 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
 _REDUCE = True
 
 
-def _reduced_step(J, phi, dof, info):
-    """The Newton step J dx = -phi with the released patches' rows eliminated.
+def _kept_rows(info, d):
+    """The rows of an event's Newton system that are not identity rows: a patch out of
+    contact whose trial slip is not zero has the rows P_e = 0 (normal, tangential and
+    rotations alike); every other row is kept, the cuff's six included."""
+    touch, slide = info[0], info[1]
+    keep = np.ones(len(touch) * d + 6, dtype=bool)
+    keep[:-6] = np.repeat(touch | ~slide, d)
+    return keep
 
-    A patch out of contact whose trial slip is not zero has the rows P_e = 0 (identity
-    rows of J): its step is -phi_e, and the other dofs solve the remaining block, a
-    smaller LU (its cost grows with the cube of the size, and events are where patches
+
+def _reduced_step(Jk, phi, keep):
+    """The Newton step J dx = -phi from J's rows ``keep`` (``Jk``), all other rows of J
+    being identity rows: their step is -phi, and the kept dofs solve the remaining block,
+    a smaller LU (its cost grows with the cube of the size, and events are where patches
     let go). None where that block is singular (the caller falls back to the full
     system)."""
-    touch, slide = info[0], info[1]
-    gone = ~touch & slide
-    if not gone.any():
-        return lu_solve_or_none(J, -phi)
-    out = dof[gone].ravel()
-    keep = np.concatenate([dof[~gone].ravel(), np.arange(dof.size, len(phi))])
-    dx = np.empty(len(phi))
-    dx[out] = -phi[out]
-    rhs = J[np.ix_(keep, out)] @ phi[out]
+    if keep.all():
+        return lu_solve_or_none(Jk, -phi)
+    dx = -phi
+    rhs = Jk[:, ~keep] @ phi[~keep]
     rhs -= phi[keep]
-    sub = lu_solve_or_none(J[np.ix_(keep, keep)], rhs)
+    sub = lu_solve_or_none(Jk[:, keep], rhs)
     if sub is None:
         return None
     dx[keep] = sub
