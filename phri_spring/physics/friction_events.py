@@ -175,10 +175,10 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
     n, d, mu = form.n, form.d, form.mu
     N = n * d
     C, T = form.C, form.T
-    dof = np.arange(N).reshape(n, d)
-    nrm, tan, rot = dof[:, 0], dof[:, 1:3], dof[:, 3:]
-    rho = 1.0 / np.diag(C)
-    rho_n, rho_t, rho_r = rho[nrm], rho[tan], rho[rot]
+    ar = form.event_arrays
+    dof, nrm, tan, rot = ar.dof, ar.nrm, ar.tan, ar.rot
+    rho, rho_n, rho_t = ar.rho, ar.rho_n, ar.rho_t
+    dRel, J0, TT = ar.dRel, ar.J0, ar.TT
     z0 = state.z.copy()
     rel_prev = _relative(form, state.u, state.P).reshape(n, d)
     back = state.cls == RELEASED
@@ -187,36 +187,33 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
     zf = z0.ravel()
     force_scale, _ = _scales(form, r)
     tol = 1e-12 * force_scale
+    minus_rho = -rho
 
     def residual(x):
         P, u = x[:N], x[N:]
+        Pe = P.reshape(n, d)
         rel = T @ u + form.delta - C @ P - zf
-        Pn = P[nrm]
-        yn = Pn + rho_n * rel[nrm]
+        w = minus_rho * rel                       # phi of the tied rows
+        we = w.reshape(n, d)
+        yn = Pe[:, 0] - we[:, 0]
         touch = yn > 0
         Rt = mu * np.maximum(yn, 0.0)
-        Pt = P[tan]
-        y = Pt + rho_t * rel[tan]
+        y = Pe[:, 1:3] - we[:, 1:3]
         ny = np.sqrt(y[:, 0] ** 2 + y[:, 1] ** 2)
         slide = ny > Rt
         phi = np.empty(N + 6)
-        phi[nrm] = np.where(touch, -rho_n * rel[nrm], Pn)
+        phi[:N] = w
+        ph = phi[:N].reshape(n, d)
+        off = ~touch
+        if off.any():
+            ph[off, 0] = Pe[off, 0]
+            ph[off, 3:] = Pe[off, 3:]
         with np.errstate(invalid="ignore", divide="ignore"):
             yh = np.where(ny[:, None] > 0, y / ny[:, None], 0.0)
-        phi[tan] = np.where(slide[:, None], Pt - Rt[:, None] * yh, -rho_t * rel[tan])
-        if d == 6:
-            phi[rot] = np.where(touch[:, None], -rho_r * rel[rot], P[rot])
-        phi[N:] = T.T @ P - r
+        if slide.any():
+            ph[slide, 1:3] = Pe[slide, 1:3] - Rt[slide, None] * yh[slide]
+        phi[N:] = TT @ P - r
         return phi, (touch, slide, yh, ny, Rt)
-
-    # the rows of every touching, stuck patch: -rho_i d rel_i / d(P, u), the same at every
-    # Newton step; each step copies them and changes only the rows of released and
-    # sliding patches (made once per sample: building J from scratch each step cost as
-    # much as its LU)
-    dRel = np.hstack([-C, T])                       # d rel / d(P, u)
-    J0 = np.zeros((N + 6, N + 6))
-    J0[:N] = -rho[:, None] * dRel
-    J0[N:, :N] = T.T
 
     def jacobian(info, keep=None):
         """J, or only its rows ``keep`` (a mask; the rows of every patch left out must be

@@ -66,6 +66,32 @@ class InterfaceForm:
         """The spring model's per-element arrays (diagonal C only), made once per form."""
         return ElementArrays(self)
 
+    @cached_property
+    def event_arrays(self) -> "EventArrays":
+        """The coupled model's constant event arrays, made once per form."""
+        return EventArrays(self)
+
+
+class EventArrays:
+    """The coupled model's constant arrays of an event's Newton system (see
+    :func:`~phri_spring.physics.friction_events.solve_event_coupled`), made once per form:
+    the dof indices, each dof's stiffness rho = 1/C_ii, d rel / d(P, u) and the rows of a
+    touching, stuck patch, -rho_i d rel_i / d(P, u), with the cuff's rows T^T below (each
+    Newton step copies them and changes only the rows of released and sliding patches)."""
+
+    def __init__(self, form: "InterfaceForm"):
+        n, d = form.n, form.d
+        N = n * d
+        self.dof = np.arange(N).reshape(n, d)
+        self.nrm, self.tan, self.rot = self.dof[:, 0], self.dof[:, 1:3], self.dof[:, 3:]
+        self.rho = 1.0 / np.diag(form.C)
+        self.rho_n, self.rho_t = self.rho[self.nrm], self.rho[self.tan]
+        self.dRel = np.hstack([-form.C, form.T])
+        self.TT = np.ascontiguousarray(form.T.T)
+        self.J0 = np.zeros((N + 6, N + 6))
+        self.J0[:N] = -self.rho[:, None] * self.dRel
+        self.J0[N:, :N] = self.TT
+
 
 class ElementArrays:
     """The spring model's per-element arrays, ready for the return mapping."""
