@@ -6,12 +6,11 @@ section 12): what the friction solvers of :mod:`phri_spring.physics.friction` an
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.linalg import LinAlgWarning, lu_factor, lu_solve
+from scipy.linalg import get_lapack_funcs
 
 from .friction_states import RELEASED, SLIDING, STUCK
 from .geometry import element_jacobians
@@ -66,6 +65,32 @@ class InterfaceForm:
     def elements(self) -> "ElementArrays":
         """The spring model's per-element arrays (diagonal C only), made once per form."""
         return ElementArrays(self)
+
+    @cached_property
+    def event_arrays(self) -> "EventArrays":
+        """The coupled model's constant event arrays, made once per form."""
+        return EventArrays(self)
+
+
+class EventArrays:
+    """The coupled model's constant arrays of an event's Newton system (see
+    :func:`~phri_spring.physics.friction_events.solve_event_coupled`), made once per form:
+    the dof indices, each dof's stiffness rho = 1/C_ii, d rel / d(P, u) and the rows of a
+    touching, stuck patch, -rho_i d rel_i / d(P, u), with the cuff's rows T^T below (each
+    Newton step copies them and changes only the rows of released and sliding patches)."""
+
+    def __init__(self, form: "InterfaceForm"):
+        n, d = form.n, form.d
+        N = n * d
+        self.dof = np.arange(N).reshape(n, d)
+        self.nrm, self.tan, self.rot = self.dof[:, 0], self.dof[:, 1:3], self.dof[:, 3:]
+        self.rho = 1.0 / np.diag(form.C)
+        self.rho_n, self.rho_t = self.rho[self.nrm], self.rho[self.tan]
+        self.dRel = np.hstack([-form.C, form.T])
+        self.TT = np.ascontiguousarray(form.T.T)
+        self.J0 = np.zeros((N + 6, N + 6))
+        self.J0[:N] = -self.rho[:, None] * self.dRel
+        self.J0[N:, :N] = self.TT
 
 
 class ElementArrays:
@@ -156,8 +181,10 @@ def initial_state(form: InterfaceForm) -> PathState:
 
 
 # --------------------------------------------------------------------------- one state
-def _solve_state(form: InterfaceForm, r, cls, z, s):
-    """(u, P) of one wrench r (6,) in a fixed state; None if the state holds no cuff."""
+def _solve_state(form: InterfaceForm, r, cls, z, s, reduce: bool = False):
+    """(u, P) of one wrench r (6,) in a fixed state; None if the state holds no cuff.
+    ``reduce``: solve without the released patches' rows and columns (their rows say
+    P_e = 0, so their columns multiply zeros): a smaller LU, the same answer."""
     n, d, mu = form.n, form.d, form.mu
     N = n * d
     A = np.zeros((N + 6, N + 6))
@@ -180,6 +207,15 @@ def _solve_state(form: InterfaceForm, r, cls, z, s):
         A[rows, dof[sl, 0]] = -mu * s[sl, j - 1]
     A[N:, :N] = form.T.T
     b[N:] = r
+    if reduce and free.size:
+        keep = np.ones(N + 6, dtype=bool)
+        keep[free] = False
+        x = np.zeros(N + 6)
+        sub = lu_solve_or_none(A[np.ix_(keep, keep)], b[keep])
+        if sub is None:
+            return None
+        x[keep] = sub
+        return x[N:], x[:N]
     x = lu_solve_or_none(A, b)
     if x is None:
         return None
@@ -187,16 +223,19 @@ def _solve_state(form: InterfaceForm, r, cls, z, s):
     return x[N:], x[:N]
 
 
+_getrf, _getrs = get_lapack_funcs(("getrf", "getrs"), dtype=np.float64)
+
+
 def lu_solve_or_none(A, b):
-    """A x = b by scipy's LU (numpy's threaded solve can stall on a busy machine at the
-    coupled model's size); None for a singular A or a non-finite x."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("error", LinAlgWarning)
-            x = lu_solve(lu_factor(A, check_finite=False), b, check_finite=False)
-    except (np.linalg.LinAlgError, ValueError, LinAlgWarning):
+    """A x = b by LAPACK's LU (numpy's threaded solve can stall on a busy machine at the
+    coupled model's size); None for a singular A or a non-finite x. LAPACK is called
+    directly: an event makes several of these small solves, and the checking wrappers of
+    ``scipy.linalg.lu_factor`` cost a fair share of each (benchmarks/FRICTION.md)."""
+    lu, piv, info = _getrf(A, overwrite_a=False)
+    if info != 0:     # > 0: an exactly zero pivot (singular), < 0: a bad argument
         return None
-    return x if np.all(np.isfinite(x)) else None
+    x, info = _getrs(lu, piv, b, overwrite_b=False)
+    return x if info == 0 and np.all(np.isfinite(x)) else None
 
 
 def _relative(form: InterfaceForm, u, P):
