@@ -42,7 +42,7 @@ from scipy.optimize import nnls
 
 from .active_set import SET_RTOL, ContactSystem, FactorCache, key_groups, set_keys
 from ..errors import ModelInputError
-from .geometry import CuffGeometry, rigid_body_map
+from .geometry import CuffGeometry, patch_frames, rigid_body_map  # noqa: F401 - re-exported
 from .model import OnGeometry, check_friction, field_unit
 from .preload import strap_preload
 from .springs import shear_ratio_from_poisson
@@ -57,16 +57,6 @@ __all__ = ["CoupledModel", "CoupledSystem", "SetFactors", "build_coupled_model",
 #: about 1 dry, section 12.1) so that pressing patches do not slide, small enough that the
 #: sliding phase of a patch letting go spans more than round-off of its normal force.
 LIFT_OFF_MU = 10.0
-
-
-def patch_frames(geometry: CuffGeometry) -> np.ndarray:
-    """Local axes of every patch, shape (n, 3, 3): rows normal n_e, axial a, circumferential c_e.
-
-    n_e points into the arm; a = the skin's meridian toward +x (+x itself on an untapered
-    limb); c_e = the direction of increasing angle theta (the geometry's ``meridian`` and
-    ``circumferential``).
-    """
-    return np.stack([geometry.normals, geometry.meridian, geometry.circumferential], axis=1)
 
 
 def rigid_patch_map(geometry: CuffGeometry, dofs: int) -> np.ndarray:

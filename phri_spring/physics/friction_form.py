@@ -12,7 +12,7 @@ from functools import cached_property
 import numpy as np
 from scipy.linalg import get_lapack_funcs
 
-from .friction_states import RELEASED, SLIDING, STUCK
+from .friction_states import RELEASED, SLIDING, STUCK, interface_mu
 from .geometry import element_jacobians
 
 __all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "interface_mu",
@@ -110,15 +110,6 @@ class ElementArrays:
         Tt3 = T[:, 1:3, :]
         self.TT = np.einsum("eki,ekj->eij", Tt3, Tt3).reshape(n, 36)
         self.Tt3 = Tt3
-
-
-def interface_mu(model) -> float | None:
-    """The Coulomb coefficient a model's interface runs with along a loading path, or None
-    for bonded ties solved sample by sample (the spring model without
-    ``friction_coefficient``, the hyperelastic coupled arms). The linear coupled arm always
-    has one: its ``friction_coefficient``, else the lift-off cone's (docs/model.md 10.2)."""
-    mu = getattr(model, "interface_mu", None)
-    return getattr(model, "friction_coefficient", None) if mu is None else mu
 
 
 def interface_form(model) -> InterfaceForm:

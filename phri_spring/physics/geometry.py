@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["CuffGeometry", "cuff_geometry", "section_geometry", "skew", "rigid_body_map",
+__all__ = ["CuffGeometry", "patch_frames", "cuff_geometry", "section_geometry", "skew", "rigid_body_map",
            "element_jacobians", "contact_vectors", "tangent"]
 
 
@@ -365,3 +365,13 @@ def section_geometry(row_x, sections, row_width, angle_start_deg: float, angle_s
         theta=np.tile(theta_row, n_rows), span=np.full(n_rows * n_ang, width),
         points=np.vstack(pts), normals=np.vstack(nrm), areas=we * np.concatenate(arc) / ca,
         turning=np.concatenate(turn), strap_section=strap)
+
+
+def patch_frames(geometry: CuffGeometry) -> np.ndarray:
+    """Local axes of every patch, shape (n, 3, 3): rows normal n_e, axial a, circumferential c_e.
+
+    n_e points into the arm; a = the skin's meridian toward +x (+x itself on an untapered
+    limb); c_e = the direction of increasing angle theta (the geometry's ``meridian`` and
+    ``circumferential``).
+    """
+    return np.stack([geometry.normals, geometry.meridian, geometry.circumferential], axis=1)

@@ -34,7 +34,6 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-from scipy.optimize import nnls
 
 __all__ = ["REASONS", "NONE", "TORSION", "AXIAL", "PULL", "NOT_CONVERGED", "explain",
            "arm_radius", "friction_shortfall"]
@@ -76,6 +75,7 @@ def friction_shortfall(r, normal_sum, mu, radius):
 def pull_shortfall(b, r, radius):
     """Distance [N] of the radial force and bending moments of wrenches r (m, 6) from the
     cone of element pushes b (n, 6) (moments over ``radius``), per row."""
+    from scipy.optimize import nnls  # on demand: simulate imports this module at start-up
     cols = [1, 2, 4, 5]
     w = np.array([1.0, 1.0, 1.0 / radius, 1.0 / radius])
     A = (np.asarray(b, dtype=float)[:, cols] * w).T

@@ -24,8 +24,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import quad
-from scipy.interpolate import CubicSpline
 
 __all__ = ["SectionError", "Section", "CircleSection", "EllipseSection", "OutlineSection",
            "StrapSection", "RHO_RANGE_M", "MIN_OUTLINE_POINTS", "TAPER_LIMIT_DEG",
@@ -133,6 +131,7 @@ class Section:
         return []
 
     def _integrate(self, f, lo, hi) -> np.ndarray:
+        from scipy.integrate import quad  # on demand: every config imports this module
         lo, hi = np.broadcast_arrays(np.asarray(lo, float), np.asarray(hi, float))
         tl, th = self.param_at(lo), self.param_at(hi)
         out = np.empty(tl.shape)
@@ -232,6 +231,7 @@ class OutlineSection(Section):
     _SAMPLES = 48   # per spline piece, for the star-shape check and the inverse's start
 
     def __init__(self, points):
+        from scipy.interpolate import CubicSpline  # on demand: every config imports this module
         try:
             P = np.asarray(points, dtype=float)
         except (TypeError, ValueError):

@@ -28,7 +28,7 @@ import numpy as np
 from .spd6 import SYM6_FULL, SYM6_UPPER, spd_solve_batched as _spd_solve_batched
 from .spring_newton import solve_newton, solve_newton_warm
 from .solution import Solution
-from .friction_form import interface_mu
+from .friction_states import interface_mu
 from .spring_outputs import (compression, energy, forces_from_compression, normal_forces,
                              shear_forces)
 from .active_set import (PLAIN_ITERATIONS, SET_RTOL, ContactSystem, FactorCache, iterate,

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.coupled import patch_frames
+from ..physics.geometry import patch_frames
 
 __all__ = ["shear_columns", "has_patch_moments", "element_loads", "shear_extras"]
 

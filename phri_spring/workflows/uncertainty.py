@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..io.config import Config
-from ..physics.friction_form import interface_mu
+from ..physics.friction_states import interface_mu
 from ..physics.solver import FactorCache
 from ..reports.tissue_law_text import arm_law_text
 from ..reports.uncertainty_report import monte_carlo_summary_line
