@@ -243,6 +243,18 @@ def _per_row(value, n_rows: int, name: str) -> np.ndarray:
     return arr
 
 
+def _rows(row_x, angle_count, row_labels):
+    """(row_x (n_rows,), n_rows, n_angles, row labels) of a grid, checked; labels default
+    to A, B, C, ..."""
+    row_x = np.atleast_1d(np.asarray(row_x, dtype=float))
+    n_rows, n_ang = row_x.size, int(angle_count)
+    if n_rows < 1 or n_ang < 1:
+        raise ValueError("a cuff needs at least one row and one angular location")
+    if row_labels is None:
+        row_labels = [chr(ord("A") + i) for i in range(n_rows)]
+    return row_x, n_rows, n_ang, tuple(str(r) for r in row_labels)
+
+
 def cuff_geometry(row_x, radius, row_width, angle_start_deg: float, angle_step_deg: float,
                   angle_count: int, angle_width_deg: float | None = None,
                   row_labels=None, taper_deg: float = 0.0) -> CuffGeometry:
@@ -272,14 +284,7 @@ def cuff_geometry(row_x, radius, row_width, angle_start_deg: float, angle_step_d
     -------
     CuffGeometry
     """
-    row_x = np.atleast_1d(np.asarray(row_x, dtype=float))
-    n_rows = row_x.size
-    n_ang = int(angle_count)
-    if n_rows < 1 or n_ang < 1:
-        raise ValueError("a cuff needs at least one row and one angular location")
-    if row_labels is None:
-        row_labels = [chr(ord("A") + i) for i in range(n_rows)]
-    row_labels = tuple(str(r) for r in row_labels)
+    row_x, n_rows, n_ang, row_labels = _rows(row_x, angle_count, row_labels)
     R = _per_row(radius, n_rows, "radius")
     w = _per_row(row_width, n_rows, "row_width")
     width = angle_step_deg if angle_width_deg is None else angle_width_deg
@@ -333,18 +338,11 @@ def section_geometry(row_x, sections, row_width, angle_start_deg: float, angle_s
     """
     from .sections import StrapSection
 
-    row_x = np.atleast_1d(np.asarray(row_x, dtype=float))
-    n_rows = row_x.size
-    n_ang = int(angle_count)
-    if n_rows < 1 or n_ang < 1:
-        raise ValueError("a cuff needs at least one row and one angular location")
+    row_x, n_rows, n_ang, row_labels = _rows(row_x, angle_count, row_labels)
     single = not isinstance(sections, (list, tuple))
     secs = [sections] * n_rows if single else list(sections)
     if len(secs) != n_rows:
         raise ValueError(f"sections: expected one per row ({n_rows}), got {len(secs)}")
-    if row_labels is None:
-        row_labels = [chr(ord("A") + i) for i in range(n_rows)]
-    row_labels = tuple(str(r) for r in row_labels)
     w = _per_row(row_width, n_rows, "row_width")
     width = np.radians(angle_step_deg if angle_width_deg is None else angle_width_deg)
     theta_row = np.radians(angle_start_deg + angle_step_deg * np.arange(n_ang))
