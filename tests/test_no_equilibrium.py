@@ -192,3 +192,27 @@ def test_coupled_ring_axial_force_beyond_capacity():
     code, s_N, s_Nm = explain(model, W, sol.converged)
     assert list(code) == [NONE, NONE, NONE, AXIAL]
     np.testing.assert_allclose(s_N[3], 0.2 * cap, rtol=1e-6)
+
+
+def test_the_capacity_of_a_coupled_arm_uses_its_bonded_normal_forces():
+    # the reasons' capacity takes the normal forces of bonded ties (docs/model.md 12.7); the
+    # coupled arm without friction runs its lift-off cone, which a push that lifts patches
+    # off tells apart
+    from phri_spring.physics.coupled import build_coupled_model
+    from phri_spring.physics.no_equilibrium import _bonded_normal_sum
+
+    n = 8
+    g = cuff_geometry([0.0], R, 0.025, 0.0, 360.0 / n, n)
+    d2 = np.sum((g.points[:, None, :] - g.points[None, :, :]) ** 2, axis=-1)
+    rot = np.diag([1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3])
+    C = 2e-5 * np.kron(np.eye(n), rot) + 1e-5 * np.kron(np.exp(-d2 / 0.03 ** 2), rot)
+    K = np.linalg.inv(C)
+    W = np.array([[0.0, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 200.0, 0.0, 0.0, 0.0, 0.0]])
+    bonded = solve(build_coupled_model(g, K, 2e5, strap_tension=20.0, lift_off=False), W)
+    released = solve(build_coupled_model(g, K, 2e5, strap_tension=20.0), W)
+    assert (~bonded.contact[1]).any()          # the push lifts patches off
+    assert abs(released.normal[1].sum() - bonded.forces[1].sum()) > 1e-3
+    for model in (build_coupled_model(g, K, 2e5, strap_tension=20.0, friction_coefficient=MU),
+                  build_coupled_model(g, K, 2e5, strap_tension=20.0)):
+        np.testing.assert_allclose(_bonded_normal_sum(model, W), bonded.forces.sum(axis=1),
+                                   rtol=1e-12)

@@ -89,7 +89,11 @@ def _bonded_normal_sum(model, W):
     """Sum of the normal forces [N] the model gives wrenches W (m, 6) with bonded ties."""
     from .solver import solve
 
-    bonded = dataclasses.replace(model, friction_coefficient=None)
+    # bonded ties everywhere: the coupled arm without friction would run its lift-off cone
+    changes = {"friction_coefficient": None}
+    if hasattr(model, "lift_off"):
+        changes["lift_off"] = False
+    bonded = dataclasses.replace(model, **changes)
     sol = solve(bonded, W)
     total = np.sum(sol.forces, axis=1)
     return np.where(sol.converged, total, np.nan)
