@@ -88,6 +88,37 @@ def cached_identification_only(mp, cache=None) -> None:
                lambda *a, **k: pytest.fail("identified again"))
 
 
+def check_friction_laws(model, W, sol, mu):
+    """Equilibrium, cone, released-carry-nothing, no penetration, at every converged sample
+    of a friction solution (docs/model.md section 12.1); returns (normal forces, the
+    released mask, the compressions (spring model; None otherwise), the force scale) of
+    those samples for further checks."""
+    from phri_spring.physics import friction
+
+    form = friction.interface_form(model)
+    ok = sol.converged
+    fn, ft = sol.forces[ok], sol.tangential[ok]
+    m = int(ok.sum())
+    P = np.zeros((m, form.n, form.d))
+    P[:, :, 0], P[:, :, 1:3] = fn, ft
+    if sol.moments is not None:
+        P[:, :, 3:] = sol.moments[ok]
+    r = W[ok] + model.W_pre
+    scale = np.abs(r).max() + 1.0
+    np.testing.assert_allclose(P.reshape(m, -1) @ form.T, r, rtol=0, atol=1e-10 * scale)
+    tn = np.linalg.norm(ft, axis=2)
+    assert np.all(fn >= 0)
+    assert np.all(tn <= mu * fn + 1e-9 * scale)
+    off = ~sol.contact[ok]
+    assert np.all(P[off] == 0.0)
+    assert np.all(tn[fn == 0] <= 1e-9 * scale)
+    g = None
+    if hasattr(model, "delta0"):   # spring model: a released element is not compressed
+        g = model.delta0 + sol.u[ok] @ model.bT
+        assert np.all(g[off] <= 1e-12 * (np.abs(g).max() + 1e-9))
+    return fn, off, g, scale
+
+
 def write_yaml(folder, raw: dict, name: str = "cfg.yaml") -> Path:
     """``raw`` written as YAML to folder / name; the path."""
     import yaml

@@ -20,6 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import check_friction_laws
 from phri_spring.physics import friction, friction_events
 from phri_spring.physics.active_set import FactorCache
 from phri_spring.physics.coupled import build_coupled_model
@@ -105,28 +106,6 @@ def test_jenkins_bank_first_loading_and_reversal_closed_form():
     assert np.isclose(sol.tangential[-1, :, 0], -q, rtol=1e-12, atol=0).any()
 
 
-def _check_laws(model, W, sol, mu):
-    """Equilibrium, cone, released-carry-nothing, no penetration, at every sample."""
-    form = friction.interface_form(model)
-    ok = sol.converged
-    fn, ft = sol.forces[ok], sol.tangential[ok]
-    m = int(ok.sum())
-    P = np.zeros((m, form.n, form.d))
-    P[:, :, 0], P[:, :, 1:3] = fn, ft
-    if sol.moments is not None:
-        P[:, :, 3:] = sol.moments[ok]
-    r = W[ok] + model.W_pre
-    scale = np.abs(r).max() + 1.0
-    np.testing.assert_allclose(P.reshape(m, -1) @ form.T, r, rtol=0, atol=1e-10 * scale)
-    tn = np.linalg.norm(ft, axis=2)
-    assert np.all(fn >= 0)
-    assert np.all(tn <= mu * fn + 1e-9 * scale)
-    off = ~sol.contact[ok]
-    assert np.all(P[off] == 0.0)
-    assert np.all(tn[fn == 0] <= 1e-9 * scale)
-    if hasattr(model, "delta0"):   # spring model: a released element is not compressed
-        g = model.delta0 + sol.u[ok] @ model.bT
-        assert np.all(g[off] <= 1e-12 * (np.abs(g).max() + 1e-9))
 
 
 def test_release_and_recontact_on_a_load_cycle():
@@ -136,7 +115,7 @@ def test_release_and_recontact_on_a_load_cycle():
     W[:, 1] = -F
     sol = solve(model, W)
     assert sol.converged.all()
-    _check_laws(model, W, sol, MU)
+    check_friction_laws(model, W, sol, MU)
     lifted = ~sol.contact
     assert lifted[119].any() and not lifted[0].any()
     # every element that let go came back by the end of the cycle
@@ -159,7 +138,7 @@ def test_coupled_release_and_laws_on_random_paths():
     sol = solve(model, W)
     assert sol.converged.mean() > 0.99
     assert (~sol.contact[sol.converged]).any()
-    _check_laws(model, W, sol, MU)
+    check_friction_laws(model, W, sol, MU)
 
 
 @settings(max_examples=25, deadline=None)
@@ -176,7 +155,7 @@ def test_laws_hold_on_random_paths(seed, mu, tension, load):
     if not sol.converged.any():
         assert np.isnan(sol.forces).all() and not sol.contact.any()
         return
-    _check_laws(model, W, sol, mu)
+    check_friction_laws(model, W, sol, mu)
 
 
 def test_blocks_and_events_agree_and_chunks_carry_the_path():
@@ -271,7 +250,7 @@ def test_coupled_patch_releases_and_comes_back_on_a_load_cycle():
     model, W = _coupled_push_cycle()
     sol = solve(model, W)
     assert sol.converged.all()
-    _check_laws(model, W, sol, MU)
+    check_friction_laws(model, W, sol, MU)
     lifted = ~sol.contact
     assert lifted[79].any() and not lifted[0].any() and not lifted[-1].any()
     # the push is symmetric about the z axis plane x = 0: rows A and C mirror each other
@@ -303,7 +282,7 @@ def test_a_stalled_newton_takes_a_state_it_visited_once_checked(monkeypatch):
     assert ok.mean() >= 0.99
     np.testing.assert_allclose(sol.forces[ok], ref.forces[ok], rtol=0,
                                atol=1e-9 * np.abs(ref.forces).max())
-    _check_laws(model, W, sol, MU)
+    check_friction_laws(model, W, sol, MU)
 
 
 def test_a_sample_the_event_solver_cannot_reach_is_reached_in_smaller_increments(monkeypatch):
@@ -327,6 +306,6 @@ def test_a_sample_the_event_solver_cannot_reach_is_reached_in_smaller_increments
     sol = solve(model, W)
     assert len(refused) > 50
     assert sol.converged.all()
-    _check_laws(model, W, sol, MU)
+    check_friction_laws(model, W, sol, MU)
     np.testing.assert_allclose(sol.forces, ref.forces, rtol=0,
                                atol=1e-3 * np.abs(ref.forces).max())

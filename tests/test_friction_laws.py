@@ -20,6 +20,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from conftest import check_friction_laws
 from phri_spring.physics import friction
 from phri_spring.physics.active_set import FactorCache
 from phri_spring.physics.friction_form import InterfaceForm
@@ -41,22 +42,8 @@ def _harmony_exp(mu, tension=15.0, beta=BETA, k_cuff=2e5):
 
 
 def _check_laws(model, W, sol, mu):
-    form = friction.interface_form(model)
-    ok = sol.converged
-    fn, ft = sol.forces[ok], sol.tangential[ok]
-    m = int(ok.sum())
-    P = np.zeros((m, form.n, 3))
-    P[:, :, 0], P[:, :, 1:3] = fn, ft
-    r = W[ok] + model.W_pre
-    scale = np.abs(r).max() + 1.0
-    np.testing.assert_allclose(P.reshape(m, -1) @ form.T, r, rtol=0, atol=1e-10 * scale)
-    tn = np.linalg.norm(ft, axis=2)
-    assert np.all(fn >= 0)
-    assert np.all(tn <= mu * fn + 1e-9 * scale)
-    off = ~sol.contact[ok]
-    assert np.all(P[off] == 0.0)
-    g = model.delta0 + sol.u[ok] @ model.bT
-    assert np.all(g[off] <= 1e-12 * (np.abs(g).max() + 1e-9))
+    """The laws of every friction solution, and the series element's force where pressing."""
+    fn, off, g, scale = check_friction_laws(model, W, sol, mu)
     # a pressing element carries its series element's force at its compression
     on = ~off
     np.testing.assert_allclose(fn[on], model.element.force(g)[on], rtol=1e-9,
