@@ -26,6 +26,7 @@ from .schema_errors import config_error_from
 from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
 from .config_geometry import (check_scan_alone, geometry_sections, per_row_values, read_scan,
                               scan_geometry)
+from .config_history import ACTIVATION_FACTOR, Relaxation
 from .config_values import check_plausible
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
@@ -145,6 +146,11 @@ class _Tissue(_Strict):
                                      json_schema_extra=_unit("m"))
     poisson_ratio: float = Field(default=0.45, gt=-1.0, le=0.5, json_schema_extra=_unit("-"))
     continuum: Optional[_Continuum] = None
+    #: quasi-linear viscoelastic relaxation (docs/model.md section 15); None: elastic
+    relaxation: Optional[Relaxation] = None
+    #: stiffness of the contracted muscle over the resting one (log column ``activation``)
+    activation_factor: float = Field(default=ACTIVATION_FACTOR, gt=0, le=20,
+                                     allow_inf_nan=False, json_schema_extra=_unit("-"))
 
     _stiffness_not_bool = field_validator("stiffness", mode="before")(_not_a_bool)
 
@@ -294,6 +300,9 @@ class Config:
     tissue_law_class: Optional[type] = None
     #: the law's parameters: config key -> (n,) array in the parameter's unit
     tissue_law_parameters: dict = field(default_factory=dict)
+    #: tissue.relaxation as (fractions, times_s), or None (elastic)
+    tissue_relaxation: Optional[tuple] = None
+    activation_factor: float = ACTIVATION_FACTOR       # [-] tissue.activation_factor
     raw: dict = field(default_factory=dict, repr=False)
     #: stiffness CSV files the config reads (inputs: never to be written over)
     stiffness_files: tuple = ()
@@ -500,6 +509,9 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         friction_coefficient=None if root.interface.friction_coefficient is None
         else float(root.interface.friction_coefficient),
         tissue_law=law, tissue_law_class=law_cls, tissue_law_parameters=law_params,
+        tissue_relaxation=None if root.tissue.relaxation is None else
+        (tuple(root.tissue.relaxation.fractions), tuple(root.tissue.relaxation.times_s)),
+        activation_factor=float(root.tissue.activation_factor),
     )
 
 

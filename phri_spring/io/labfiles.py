@@ -361,7 +361,14 @@ def iter_lab_log(path, columns: Optional[dict] = None, *, group: Optional[str] =
     try:
         names = []
         for spec in wanted[1:]:
+            optional = spec.endswith("?")
+            spec = spec.rstrip("?")
             name = columns.get(spec, spec)
+            if optional and spec not in columns:
+                try:                     # an optional channel the file may not have
+                    _require(src, path, name, spec, False)
+                except DataError:
+                    continue
             _require(src, path, name, spec, spec in columns)
             names.append(name)
         time_name = columns.get(wanted[0], wanted[0])

@@ -19,7 +19,7 @@ from typing import Callable, Iterator, Optional
 import numpy as np
 
 from ..errors import DataError, UsageError
-from .columns import LOG_COLUMNS, LOG_GROUP_KEY
+from .columns import LOG_COLUMNS, LOG_GROUP_KEY, OPTIONAL_LOG_COLUMNS
 
 __all__ = ["LogFormat", "WrenchChunk", "check_chunk", "parse_column_map", "resolve_columns",
            "take_group", "reader_options"]
@@ -32,6 +32,7 @@ class WrenchChunk:
     start: int
     time: np.ndarray          # (k,) [s]
     wrench: np.ndarray        # (k, 6) in the log's units
+    activation: Optional[np.ndarray] = None   # (k,) muscle activation 0..1, if the log has it
 
 
 @dataclass(frozen=True)
@@ -116,22 +117,30 @@ def parse_column_map(items) -> dict:
                              key="--column")
         name, col = item.split("=", 1)
         name = name.strip()
-        if name not in LOG_COLUMNS:
-            close = difflib.get_close_matches(name, LOG_COLUMNS, n=1, cutoff=0.5)
+        known = LOG_COLUMNS + tuple(c.rstrip("?") for c in OPTIONAL_LOG_COLUMNS)
+        if name not in known:
+            close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise UsageError(f"unknown column name {name!r}{hint} (expected one of "
-                             f"{', '.join(LOG_COLUMNS)})", key="--column")
+                             f"{', '.join(known)})", key="--column")
         out[name] = col
     return out
 
 
 def resolve_columns(available, mapping: Optional[dict] = None, *, file=None,
                     wanted=LOG_COLUMNS) -> list:
-    """The log's column name for each wanted spec column, in order."""
+    """The log's column name for each wanted spec column, in order.
+
+    A wanted name ending in ``?`` is optional: left out when the log has no such column
+    and the map names none."""
     mapping = dict(mapping or {})
     available = list(available)
     out = []
     for name in wanted:
+        if name.endswith("?"):
+            name = name[:-1]
+            if name not in mapping and mapping.get(name, name) not in available:
+                continue
         col = mapping.get(name, name)
         if available.count(col) > 1:
             raise DataError(f"column {col!r} appears {available.count(col)} times; expected "

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import DataError, UsageError
 from .arrow_formats import CSV, PARQUET
-from .columns import LOG_COLUMNS
+from .columns import ACTIVATION, LOG_COLUMNS
 from .labfiles import MAT, TDMS
 from .log_base import LogFormat, WrenchChunk, take_group
 
@@ -118,8 +118,23 @@ def iter_wrench_log(path, columns: Optional[dict] = None, *, group: Optional[str
     if path.is_dir():
         raise DataError("is a folder; expected a wrench log file", file=path)
     columns, group = take_group(columns, group)
-    yield from recipe.read(path, columns, chunk_rows=chunk_rows, wanted=wanted,
-                           **_group_of(recipe, group))
+    chunks = recipe.read(path, columns, chunk_rows=chunk_rows, wanted=wanted,
+                         **_group_of(recipe, group))
+    if ACTIVATION + "?" not in wanted:
+        yield from chunks
+        return
+    # the optional activation column: split off, checked to be within 0..1
+    name = columns.get(ACTIVATION, ACTIVATION)
+    for ch in chunks:
+        if ch.wrench.shape[1] == 6:
+            yield ch
+            continue
+        a = ch.wrench[:, 6]
+        bad = np.flatnonzero((a < 0.0) | (a > 1.0))
+        if len(bad):
+            raise DataError(f"expected a muscle activation from 0 to 1, got {a[bad[0]]:g} in "
+                            f"data row {ch.start + int(bad[0]) + 1:,}", file=path, key=name)
+        yield WrenchChunk(ch.start, ch.time, ch.wrench[:, :6], a.copy())
 
 
 def _group_of(recipe: LogFormat, group: Optional[str]) -> dict:

@@ -108,12 +108,34 @@ _QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear
 @register_arm("compliant", "tissue and cuff springs in series (the paper's compliant arm; "
                            "any tissue law)")
 def _compliant_model(cfg: Config, cache_dir=None):
-    return _spring_model(cfg, "compliant")
+    model = _spring_model(cfg, "compliant")
+    return history_model(model, cfg) if cfg.tissue_relaxation is not None else model
 
 
 @register_arm("rigid", "cuff springs only: the rigid-arm assumption of the literature")
 def _rigid_model(cfg: Config, cache_dir=None):
     return _spring_model(cfg, "rigid")
+
+
+def history_model(model, cfg: Config):
+    """``model`` solved sample by sample with the config's tissue relaxation and activation
+    factor (:class:`~phri_spring.physics.history.HistoryModel`): the compliant arm. The rigid
+    arm has no tissue and is returned as it is; the coupled arm is refused in one line."""
+    from ..physics.history import HistoryModel
+    from ..physics.relaxation import Prony
+
+    if getattr(model, "has_history", False) or getattr(model, "arm", "") == "rigid":
+        return model
+    key = "tissue.relaxation" if cfg.tissue_relaxation is not None else "tissue.activation_factor"
+    if not hasattr(model, "element"):
+        raise ConfigError("relaxation and activation act on the spring arm's tissue springs; "
+                          "the coupled arm's continuum layer is elastic (use --arm compliant)",
+                          file=cfg.path, key=key)
+    try:
+        prony = None if cfg.tissue_relaxation is None else Prony(*cfg.tissue_relaxation)
+        return HistoryModel(model, prony, cfg.activation_factor)
+    except ModelInputError as exc:
+        raise ConfigError(str(exc), file=cfg.path, key=key) from None
 
 
 def _spring_model(cfg: Config, arm: str):
@@ -178,6 +200,10 @@ def _fe_module(cfg: Config):
                          "cuff's patches (needs tissue.continuum; docs/model.md section 10)")
 def _coupled_model(cfg: Config, cache_dir=None):
     """The coupled tissue model of a config (docs/model.md section 10)."""
+    if cfg.tissue_relaxation is not None:
+        raise ConfigError("relaxation acts on the spring arm's tissue springs; the coupled "
+                          "arm's continuum layer is elastic (use --arm compliant)",
+                          file=cfg.path, key="tissue.relaxation")
     return coupled_model(cfg, cache_dir=cache_dir)
 
 

@@ -28,13 +28,14 @@ import numpy as np
 from ..errors import ConvergenceError, DataError, UsageError
 from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
+from ..io.columns import LOG_COLUMNS, OPTIONAL_LOG_COLUMNS
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
 from ..physics.load_path import ChunkedShares
 from ..physics.model import SpringModel
 from ..physics.no_equilibrium import arm_radius
 from ..physics.solver import FactorCache, solve
-from .common import cuff_wrench, model_from_config
+from .common import cuff_wrench, history_model, model_from_config
 from ..io.memory_budget import plan_stream
 from .plotting import MaxPool
 from .no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, NoAnswerTally, no_equilibrium_extras
@@ -178,10 +179,24 @@ def _baseline_forces(model: SpringModel, cfg: Config, baseline: Baseline, mean_w
     if baseline.kind == "none":
         return None
     W = np.zeros(6) if baseline.kind == "zero" else cuff_wrench(cfg, mean_wrench_lc)
+    if getattr(model, "has_history", False):   # the tissue rested long under W, relaxed
+        f = model.rested_forces(W, max_iterations=max_iterations)
+        if not np.isfinite(f).all():
+            raise ConvergenceError(f"the solver did not converge at the baseline wrench "
+                                   f"{W.tolist()}")
+        return f
     sol = solve(model, W, max_iterations=max_iterations)
     if not sol.converged:
         raise ConvergenceError(f"the solver did not converge at the baseline wrench {W.tolist()}")
     return sol.forces
+
+
+def check_activation(activation, m: int) -> np.ndarray:
+    """An in-memory activation (m,) within 0..1, or a one-line UsageError."""
+    a = np.asarray(activation, dtype=float)
+    if a.shape != (m,) or not (np.isfinite(a).all() and (a >= 0).all() and (a <= 1).all()):
+        raise UsageError(f"activation: expected {m} values from 0 to 1", key="activation")
+    return a
 
 
 def _as_config(config) -> Config:
@@ -190,7 +205,7 @@ def _as_config(config) -> Config:
 
 def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
              baseline: Union[str, Baseline, None] = "none",
-             model=None, shear: bool = False) -> SimulationResult:
+             model=None, shear: bool = False, activation=None) -> SimulationResult:
     """Contact forces for every sample of a wrench log held in memory.
 
     Parameters
@@ -239,6 +254,9 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
         raise ValueError(f"time: expected shape ({m},), got {t.shape}")
     if model is None:
         model = model_from_config(cfg, arm)
+    if activation is not None:
+        activation = check_activation(activation, m)
+        model = history_model(model, cfg)
     mean_lc = None
     if base.kind in ("first", "window"):
         if time is None:
@@ -250,7 +268,7 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
         mean_lc = w[mask].mean(axis=0)
     f_base = _baseline_forces(model, cfg, base, mean_lc, cfg.max_iterations)
     ch = _solve_chunk(model, cuff_wrench(cfg, w), f_base, cfg.max_iterations, FactorCache(),
-                      shear)
+                      shear, t, activation)
     extras, idx = ch.extras()
     sol = ch.solution
     return SimulationResult(time=t, labels=tuple(model.labels), forces=ch.forces,
@@ -286,9 +304,15 @@ class _Chunk:
 
 
 def _solve_chunk(model, W, f_base, max_iterations: int, cache: FactorCache,
-                 shear: bool = False) -> _Chunk:
-    """Solve cuff wrenches W (m, 6) and zero the forces by the baseline f_base (n,) or None."""
-    sol = solve(model, W, max_iterations=max_iterations, cache=cache)
+                 shear: bool = False, time=None, activation=None) -> _Chunk:
+    """Solve cuff wrenches W (m, 6) and zero the forces by the baseline f_base (n,) or None.
+
+    A model with a tissue history solves the samples in order at their times [s] and
+    activations (0..1, None: 0), continuing from the chunk before."""
+    if getattr(model, "has_history", False):
+        sol = model.solve_log(W, time, activation, max_iterations=max_iterations)
+    else:
+        sol = solve(model, W, max_iterations=max_iterations, cache=cache)
     forces = sol.forces if f_base is None else sol.forces - f_base
     return _Chunk(model, sol, forces, shear, W)
 
@@ -360,7 +384,8 @@ class LogRun:
         """The log in chunks of about ``chunk_rows`` rows (default: the reader's), as
         :func:`~phri_spring.io.logs.iter_wrench_log` yields them."""
         size = {} if chunk_rows is None else {"chunk_rows": chunk_rows}
-        return iter_wrench_log(self.log, self.columns, group=self.group, **size)
+        return iter_wrench_log(self.log, self.columns, group=self.group,
+                               wanted=LOG_COLUMNS + OPTIONAL_LOG_COLUMNS, **size)
 
     def count(self) -> Optional[int]:
         """Rows of the log (in the group read), best effort: for progress only."""
@@ -578,7 +603,10 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
                                                      model.friction_coefficient is not None),
                     decimals=decimals) as writer:
         for number, (ch, W) in enumerate(chunks):
-            chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
+            if ch.activation is not None and number == 0:   # the log has muscle activation
+                model = history_model(model, cfg)
+            chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear, ch.time,
+                                 ch.activation)
             acc.add_solution(chunk.solution)
             job = extras_job(number, ch.time, chunk)
             if on_chunk is not None:  # the observer needs the extras now, in order
