@@ -40,14 +40,41 @@ from .solution import Solution
 __all__ = ["HistoryModel", "HistoryState", "activation_scale", "kernel"]
 
 _KERNEL = None
+_WARMING = None
+
+
+def _load():
+    global _KERNEL
+    from .history_kernel import solve_history
+
+    # one tiny call loads (or compiles) the machine code for the argument types of a run
+    n, T = 1, 1
+    z = np.zeros
+    solve_history(z((1, 6)), z((1, T)), z((1, T)), np.ones(1), z((n, 6)), z((n, 6, 6)),
+                  z((n, 3, 6)), z((n, 2, 3)), z(n), np.ones(n), np.ones(n), z(n), z(n), False,
+                  1.0, z(T), z((T, n)), z((T, n, 3)), z(n), z((n, 3)), z(6), z((1, 6)),
+                  z((1, n)), z((1, n, 2)), z(1, dtype=np.int64), z(1, dtype=bool), 0, 1e-10)
+    _KERNEL = solve_history
+
+
+def warm_up() -> None:
+    """Start loading the sample loop on a thread (numba's import and its machine code take
+    a moment); the first solve waits for it. Called when a history model is made, so that
+    the loading overlaps the reading of the log."""
+    global _WARMING
+    if _KERNEL is None and _WARMING is None:
+        import threading
+
+        _WARMING = threading.Thread(target=_load, name="phri-history-kernel", daemon=True)
+        _WARMING.start()
 
 
 def kernel():
     """The compiled sample loop (numba, the ``fast`` extra), else the same loop in Python."""
-    global _KERNEL
+    if _WARMING is not None:
+        _WARMING.join()
     if _KERNEL is None:
-        from .history_kernel import solve_history
-        _KERNEL = solve_history
+        _load()
     return _KERNEL
 
 
@@ -119,6 +146,8 @@ class HistoryModel:
         self._PB = np.ascontiguousarray(P @ B)
         self._Ms = np.ascontiguousarray(np.einsum("eqj,eqk->ejk", self._PB, self._PB))
         self._b = np.ascontiguousarray(g.b, dtype=float)
+        self._axes = np.ascontiguousarray(np.stack([g.meridian, g.circumferential], axis=1),
+                                          dtype=float)
         self._kt = np.ascontiguousarray(law.k0, dtype=float)
         self._kc = np.ascontiguousarray(np.broadcast_to(base.element.k_cuff, (n,)), dtype=float)
         self._eta = np.ascontiguousarray(base.k_shear / base.k)
@@ -126,6 +155,7 @@ class HistoryModel:
             np.broadcast_to(law.params.get("stiffening", 0.0), (n,)), dtype=float)
         self._law_exp = law.name == "exponential"
         self.state = HistoryState(len(self.relaxation.g), n)
+        warm_up()
 
     def __getattr__(self, name):
         if name == "base":
@@ -177,21 +207,18 @@ class HistoryModel:
             r = W + self.base.W_pre
         u = np.empty((m, 6))
         f = np.empty((m, n))
-        sh = np.empty((m, n, 3))
+        tangential = np.empty((m, n, 2))
         its = np.zeros(m, dtype=np.int64)
         conv = np.zeros(m, dtype=bool)
         kernel()(np.ascontiguousarray(r), np.ascontiguousarray(A), np.ascontiguousarray(Bc),
-                 np.ascontiguousarray(s), self._b, self._Ms, self._PB,
+                 np.ascontiguousarray(s), self._b, self._Ms, self._PB, self._axes,
                  np.ascontiguousarray(self.base.delta0, dtype=float), self._kt, self._kc,
                  self._eta, self._beta, self._law_exp, float(self.relaxation.relaxed),
                  np.ascontiguousarray(self.relaxation.g), st.h, st.hs, st.Fe, st.Se, st.u,
-                 u, f, sh, its, conv, int(max_iterations), 1e-10)
+                 u, f, tangential, its, conv, int(max_iterations), 1e-10)
         st.time = float(t[-1]) if m else st.time
         if keep:
             self.state = st
-        g = self.base.geometry
-        tangential = np.stack([np.einsum("mej,ej->me", sh, g.meridian),
-                               np.einsum("mej,ej->me", sh, g.circumferential)], axis=-1)
         contact = f > 0
         if not conv.all():
             f[~conv] = np.nan

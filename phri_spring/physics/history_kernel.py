@@ -170,8 +170,8 @@ def _residual(u, r, c, K, b, delta0, C0, cs, kt, kc, beta, law_exp, kp, w, f, fp
 
 
 @_jit
-def solve_history(r, A, Bc, scale, b, Ms, PB, delta0, kt, kc, eta, beta, law_exp, G_inf, g,
-                  h, hs, Fe, Se, u, out_u, out_f, out_s, out_its, out_conv, max_it, rtol):
+def solve_history(r, A, Bc, scale, b, Ms, PB, axes, delta0, kt, kc, eta, beta, law_exp, G_inf,
+                  g, h, hs, Fe, Se, u, out_u, out_f, out_s, out_its, out_conv, max_it, rtol):
     """Solve samples r (m, 6) in order; the state (h, hs, Fe, Se, u) is updated in place.
 
     Parameters
@@ -179,14 +179,16 @@ def solve_history(r, A, Bc, scale, b, Ms, PB, delta0, kt, kc, eta, beta, law_exp
     r : (m, 6) wrench on the cuff plus the strap's [N, N*m]
     A, Bc : (m, T) recursion coefficients a_i, b_i of each sample's step
     scale : (m,) activation scale s of the tissue's stiffness [-]
-    b : (n, 6) element rows; Ms : (n, 6, 6) B_e^T P_e B_e; PB : (n, 3, 6) P_e B_e
+    b : (n, 6) element rows; Ms : (n, 6, 6) B_e^T P_e B_e; PB : (n, 3, 6) P_e B_e;
+        axes : (n, 2, 3) each element's meridian and circumferential unit vectors
     delta0, kt, kc, eta, beta : (n,) preload compression [m], tissue stiffness k0 [N/m], cuff
         stiffness [N/m] (inf: rigid cuff), shear ratio eta [-], stiffening [1/m]
     law_exp : bool, the exponential law (else linear)
     G_inf : float, g : (T,) relaxed fraction and Prony fractions
     h : (T, n), hs : (T, n, 3) memory terms; Fe : (n,), Se : (n, 3) elastic responses of
         the previous sample; u : (6,) its displacement (the start of the next)
-    out_u (m, 6), out_f (m, n), out_s (m, n, 3), out_its (m,), out_conv (m,) : outputs
+    out_u (m, 6), out_f (m, n) normal forces, out_s (m, n, 2) shear forces along the axes,
+    out_its (m,), out_conv (m,) : outputs
     """
     m = r.shape[0]
     n = b.shape[0]
@@ -353,6 +355,8 @@ def solve_history(r, A, Bc, scale, b, Ms, PB, delta0, kt, kc, eta, beta, law_exp
         for e in range(n):
             fe = f[e]
             out_f[i, e] = fe
+            s0 = 0.0
+            s1 = 0.0
             Fn = (fe - C0[e]) / c1
             for j in range(T):
                 h[j, e] = A[i, j] * h[j, e] + Bc[i, j] * (Fn - Fe[e])
@@ -362,11 +366,14 @@ def solve_history(r, A, Bc, scale, b, Ms, PB, delta0, kt, kc, eta, beta, law_exp
                 for k in range(6):
                     x += PB[e, q, k] * u[k]
                 sq = eta[e] * kp[e] * x + w[e] * Cs[e, q]
-                out_s[i, e, q] = sq
+                s0 += sq * axes[e, 0, q]
+                s1 += sq * axes[e, 1, q]
                 Sn = (sq - Cs[e, q]) / c1
                 for j in range(T):
                     hs[j, e, q] = A[i, j] * hs[j, e, q] + Bc[i, j] * (Sn - Se[e, q])
                 Se[e, q] = Sn
+            out_s[i, e, 0] = s0
+            out_s[i, e, 1] = s1
         if not conv:
             # an absurd or unsolvable sample: start the next from rest
             for k in range(6):
