@@ -33,8 +33,11 @@ else:
 
     def _jit(fn):
         # cache: the compiled loop is kept on disk (next to the module, or numba's user
-        # cache when that is read-only), so only the first run of an install compiles
-        return _njit(cache=True, nogil=True)(fn)
+        # cache when that is read-only), so only the first run of an install compiles;
+        # the helpers are inlined into the one loop, so a run loads one cached function
+        if fn.__name__ == "solve_history":
+            return _njit(cache=True, nogil=True)(fn)
+        return _njit(inline="always")(fn)
 
 __all__ = ["solve_history", "NUMBA"]
 

@@ -36,6 +36,7 @@ from ..errors import PhriError
 
 __all__ = ["Combination", "Outcome", "combinations", "run_combination", "base_config",
            "markdown_table", "CONTINUUM_ARMS", "INTERFACES", "CUFFS", "PATCH_GAPS", "LIMBS",
+           "TISSUE_TIMES",
            "LOG_SAMPLES"]
 
 #: arms that read tissue.continuum: the continuum law and the patch gap are axes for these
@@ -49,6 +50,10 @@ CUFFS = {"compliant": None, "rigid": math.inf}
 LIMBS = {"circle": None,
          "ellipse, taper": {"section": {"ellipse": [0.0502, 0.0402], "rotation": 15.0},
                             "taper_deg": 5.0}}
+#: tissue time name -> tissue.relaxation (None: elastic); a relaxing tissue's log also has
+#: a muscle activation column (docs/model.md section 15)
+TISSUE_TIMES = {"elastic": None,
+                "QLV, activation": {"fractions": [0.3, 0.2], "times_s": [0.02, 0.5]}}
 #: patch gap name -> tissue.continuum.patch_gap (None: the default)
 PATCH_GAPS = {"default": None, "0": 0.0}
 #: samples of the composition log
@@ -101,6 +106,7 @@ class Combination:
     continuum_law: Optional[str] = None
     patch_gap: Optional[str] = None
     limb: str = "circle"
+    tissue_time: str = "elastic"
 
     def config(self) -> dict:
         """The base config with this combination's keys set."""
@@ -125,11 +131,13 @@ class Combination:
         if LIMBS[self.limb] is not None:
             del raw["geometry"]["radius"]
             raw["geometry"].update(LIMBS[self.limb])
+        if TISSUE_TIMES[self.tissue_time] is not None:
+            tissue["relaxation"] = TISSUE_TIMES[self.tissue_time]
         return raw
 
     def cells(self) -> tuple:
         return (self.arm, self.tissue_law, self.continuum_law or "-", self.interface,
-                self.cuff, self.patch_gap or "-", self.limb)
+                self.cuff, self.patch_gap or "-", self.limb, self.tissue_time)
 
 
 def _ours(obj) -> bool:
@@ -147,12 +155,13 @@ def combinations(package_only: bool = False) -> list:
     arms = [a for a, m in ARM_MODELS.items() if not package_only or _ours(m.build)]
     laws = [n for n, cls in TISSUE_LAWS.items() if not package_only or _ours(cls)]
     out = []
-    for arm, law, itf, cuff, limb in itertools.product(arms, laws, INTERFACES, CUFFS, LIMBS):
+    for arm, law, itf, cuff, limb, tt in itertools.product(arms, laws, INTERFACES, CUFFS, LIMBS,
+                                                           TISSUE_TIMES):
         if arm not in CONTINUUM_ARMS:
-            out.append(Combination(arm, law, itf, cuff, limb=limb))
+            out.append(Combination(arm, law, itf, cuff, limb=limb, tissue_time=tt))
             continue
         for cont, gap in itertools.product(CONTINUUM_LAWS, PATCH_GAPS):
-            out.append(Combination(arm, law, itf, cuff, cont, gap, limb))
+            out.append(Combination(arm, law, itf, cuff, cont, gap, limb, tt))
     return out
 
 
@@ -204,8 +213,11 @@ def run_combination(comb: Combination, folder=None, *, cache_dir=None) -> Outcom
         cfg_path = folder / "composition.yaml"
         cfg_path.write_text(yaml.safe_dump(comb.config()))
         log = folder / "composition_log.csv"
-        np.savetxt(log, composition_log(), delimiter=",", header="time,Fx,Fy,Fz,Mx,My,Mz",
-                   comments="", fmt="%.9g")
+        data, header = composition_log(), "time,Fx,Fy,Fz,Mx,My,Mz"
+        if TISSUE_TIMES[comb.tissue_time] is not None:      # the muscle contracts, then rests
+            act = np.clip(np.sin(np.linspace(0.0, np.pi, len(data))) * 1.2, 0.0, 1.0)
+            data, header = np.column_stack([data, act]), header + ",activation"
+        np.savetxt(log, data, delimiter=",", header=header, comments="", fmt="%.9g")
         out = folder / "composition_forces.csv"
         try:
             with _stop_at_the_reduced_model():
@@ -324,8 +336,9 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
 def markdown_table(outcomes) -> str:
     """The docs' table: one row per combination, its outcome and, for a refusal, its key
     and line."""
-    head = ("| arm | tissue law | continuum law | interface | cuff | patch gap | limb | outcome |\n"
-            "|---|---|---|---|---|---|---|---|\n")
+    head = ("| arm | tissue law | continuum law | interface | cuff | patch gap | limb | tissue time "
+            "| outcome |\n"
+            "|---|---|---|---|---|---|---|---|---|\n")
     rows = []
     for comb, oc in outcomes:
         what = ("runs (checked up to its reduced model)" if oc.partial else "runs") \
