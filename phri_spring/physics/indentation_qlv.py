@@ -33,8 +33,8 @@ import numpy as np
 
 from .relaxation import Prony, step_coefficients
 
-__all__ = ["ELASTIC_LAWS", "DEFAULT_TERMS", "MAX_TERMS", "QlvFit", "elastic_force",
-           "memory_terms", "qlv_force", "fit_qlv"]
+__all__ = ["ELASTIC_LAWS", "DEFAULT_TERMS", "MAX_TERMS", "QlvFit", "QlvLocationFit",
+           "elastic_force", "memory_terms", "qlv_force", "fit_qlv"]
 
 #: elastic (instantaneous) parts the QLV fit knows
 ELASTIC_LAWS = ("linear", "exponential")
@@ -176,6 +176,40 @@ class QlvFit:
             return np.full(window.time.shape, np.nan)
         return qlv_force(window.time, window.depth, self.stiffness, self.prony,
                          self.stiffening, float(self.contacts[index]))
+
+
+@dataclass(frozen=True)
+class QlvLocationFit:
+    """The QLV fit of one location with the windows it was fitted to.
+
+    ``stiffness`` is k [N/m]; ``std`` is NaN (one joint fit, no spread between trials).
+    """
+
+    location: str
+    trial_ids: np.ndarray
+    windows: tuple
+    fit: QlvFit
+    flags: tuple = ()
+
+    @property
+    def stiffness(self) -> float:
+        return self.fit.stiffness
+
+    @property
+    def stiffening(self) -> float:
+        return self.fit.stiffening
+
+    @property
+    def std(self) -> float:
+        return float("nan")
+
+    @property
+    def n_trials(self) -> int:
+        return len(self.windows)
+
+    @property
+    def r2_min(self) -> float:
+        return self.fit.r2_min
 
 
 def _design(windows, log_tau, beta_span, contacts):
