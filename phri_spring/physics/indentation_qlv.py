@@ -70,9 +70,10 @@ def memory_terms(time, Fe, times_s) -> np.ndarray:
 
     h_0 = 0 (rested tissue), then h_n = a_n h_{n-1} + b_n (F^e_n - F^e_{n-1}) with (a, b) of
     :func:`~phri_spring.physics.relaxation.step_coefficients`. Unrolled, h_n =
-    sum_k (a_{k+1} ... a_n) u_k with u_k = b_k dF^e_k and a_j = exp(-dt_j / tau): so within a
-    block h_n = exp(-(t_n - t_s)/tau) (h_s + sum_{s<k<=n} exp((t_k - t_s)/tau) u_k), a cumulative
-    sum: the same recursion, vectorised, blocks short enough for exp not to overflow.
+    sum_k (a_{k+1} ... a_n) u_k with u_k = b_k dF^e_k and a_j = exp(-dt_j / tau): so over a
+    block of samples s..n after sample s-1, h_n = exp(-(t_n - t_{s-1})/tau) h_{s-1}
+    + exp(-(t_n - t_s)/tau) sum_{s<=k<=n} exp((t_k - t_s)/tau) u_k, a cumulative sum: the same
+    recursion, vectorised, in blocks short enough for exp not to overflow.
     """
     t = np.asarray(time, dtype=float)
     fe = np.asarray(Fe, dtype=float)
@@ -89,11 +90,11 @@ def memory_terms(time, Fe, times_s) -> np.ndarray:
         x = (t - t[0]) / ti                             # cumulative dt / tau
         h_prev, n0 = 0.0, 0                             # h at sample n0
         while n0 < m - 1:
-            n1 = int(np.searchsorted(x, x[n0] + _BLOCK_SPAN, side="right"))
-            n1 = min(max(n1, n0 + 2), m)                # samples n0+1 .. n1-1 in this block
-            rel = x[n0 + 1:n1] - x[n0]
+            s = n0 + 1                                  # the block: samples s .. n1-1
+            n1 = int(np.searchsorted(x, x[s] + _BLOCK_SPAN, side="right"))
+            rel = x[s:n1] - x[s]
             acc = np.cumsum(np.exp(rel) * u[n0:n1 - 1, i])
-            out[n0 + 1:n1, i] = np.exp(-rel) * (h_prev + acc)
+            out[s:n1, i] = np.exp(-(x[s:n1] - x[n0])) * h_prev + np.exp(-rel) * acc
             h_prev, n0 = out[n1 - 1, i], n1 - 1
     return out
 

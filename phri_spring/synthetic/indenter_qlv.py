@@ -63,9 +63,9 @@ def qlv_path_force(t, knots_t, knots_d, stiffness: float, fractions, times_s,
     for gi, ti in zip(g, tau):
         h = np.zeros_like(t)
         for a, b, da, db in zip(kt[:-1], kt[1:], kd[:-1], kd[1:]):
-            v = (db - da) / (b - a)
-            if v == 0:
+            if b <= a or db == da:                    # a zero-length knot step, or a hold
                 continue
+            v = (db - da) / (b - a)
             started = t > a
             u = np.minimum(t, b)
             w = np.where(started, u - a, 0.0)
