@@ -297,8 +297,13 @@ def fit_qlv(windows, *, terms: int = DEFAULT_TERMS, elastic: str = "linear") -> 
     for combo in itertools.combinations(grid, terms):
         for b in betas:
             p = np.concatenate([combo, [b] * exponential, np.zeros(len(windows))])
-            _, r = _solve(scaled, p, terms, exponential)
-            scanned.append((float(r @ r), p))
+            try:
+                _, r = _solve(scaled, p, terms, exponential)
+            except (ValueError, RuntimeError):          # a non-finite design: skip the point
+                continue
+            cost = float(r @ r)
+            if np.isfinite(cost):
+                scanned.append((cost, p))
     scanned.sort(key=lambda s: s[0])
 
     def residual(p):
@@ -311,13 +316,13 @@ def fit_qlv(windows, *, terms: int = DEFAULT_TERMS, elastic: str = "linear") -> 
             sol = least_squares(residual, p0, bounds=(lower, upper), x_scale=1.0,
                                 diff_step=1e-6, xtol=1e-10, ftol=1e-12, gtol=1e-10,
                                 max_nfev=200 * (len(p0) + 1))
-        except (ValueError, np.linalg.LinAlgError) as exc:   # a non-finite residual
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:  # non-finite
             if best is None:
                 best = (np.inf, None, str(exc))
             continue
         if best is None or best[1] is None or sol.cost < best[0]:
             best = (float(sol.cost), sol, "")
-    cost, sol, why = best
+    cost, sol, why = best if best is not None else (np.inf, None, "no finite start")
     nan = float("nan")
     if sol is None:
         return QlvFit(nan, nan, None, np.full(len(windows), nan), np.full(len(windows), nan),

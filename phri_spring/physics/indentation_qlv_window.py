@@ -89,17 +89,9 @@ class QlvWindow:
     def hold_s(self) -> float:
         """Longest time the depth stays within :data:`HOLD_TOLERANCE` of its peak [s]."""
         near = self.depth >= (1.0 - HOLD_TOLERANCE) * self.peak_depth
-        best, i, n = 0.0, 0, near.size
-        while i < n:
-            if not near[i]:
-                i += 1
-                continue
-            j = i
-            while j + 1 < n and near[j + 1]:
-                j += 1
-            best = max(best, float(self.time[j] - self.time[i]))
-            i = j + 1
-        return best
+        edges = np.diff(np.concatenate([[0], near.astype(np.int8), [0]]))
+        first, last = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+        return float((self.time[last] - self.time[first]).max()) if first.size else 0.0
 
     @property
     def loading_rate(self) -> float:
