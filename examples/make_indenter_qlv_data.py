@@ -33,17 +33,18 @@ FRACTIONS = (0.30, 0.20)
 TIMES_S = (0.4, 5.0)
 
 
-def main() -> None:
+def main(folder: Path = FOLDER) -> None:
     rng = np.random.default_rng(SEED)
     trials = [synth_qlv_trial(k, FRACTIONS, TIMES_S, depth=4e-3, ramp_s=1.0, hold_s=20.0,
                               rest=3.5, rate=100.0, noise=0.005,
                               offset=float(rng.uniform(-0.5, 0.5)), encoder=True, seed=rng,
                               location=lab, trial=1)
               for lab, k in STIFFNESS.items()]
-    FOLDER.mkdir(exist_ok=True)
-    for old in FOLDER.glob("*.csv"):
+    folder = Path(folder)
+    folder.mkdir(exist_ok=True)
+    for old in folder.glob("*.csv"):
         old.unlink()
-    write_trials(trials, FOLDER, layout="folder", displacement_unit="mm", time_decimals=2,
+    write_trials(trials, folder, layout="folder", displacement_unit="mm", time_decimals=2,
                  force_decimals=4)
     lines = [
         "# SYNTHETIC viscoelastic indenter data (not measurements)",
@@ -65,9 +66,9 @@ def main() -> None:
     lines += [f"| {lab} | {k:.0f} |" for lab, k in STIFFNESS.items()]
     lines += ["", "This file is not a trial: the folder reader reads only `*.csv` and `*.mat`.",
               ""]
-    (FOLDER / "TRUTH.md").write_text("\n".join(lines), encoding="utf-8")
-    size = sum(p.stat().st_size for p in FOLDER.iterdir())
-    print(f"wrote {len(trials)} trials to {FOLDER} ({size / 1e3:.0f} kB)")
+    (folder / "TRUTH.md").write_text("\n".join(lines), encoding="utf-8")
+    size = sum(p.stat().st_size for p in folder.iterdir())
+    print(f"wrote {len(trials)} trials to {folder} ({size / 1e3:.0f} kB)")
 
 
 if __name__ == "__main__":

@@ -315,3 +315,24 @@ def test_force_time_figure_has_a_panel_per_location():
     panels = [ax for ax in fig.axes if ax.lines]
     assert len(panels) == 3
     assert all(len(ax.lines) == 2 for ax in panels)              # data and fit
+
+
+def test_the_example_is_what_its_script_makes(tmp_path):
+    """The committed trials come from examples/make_indenter_qlv_data.py with its seed, and the
+    truth this file checks the fit against is the script's."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "make_qlv", REPO / "examples" / "make_indenter_qlv_data.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    assert script.STIFFNESS == EXAMPLE_K
+    assert (script.FRACTIONS, script.TIMES_S) == (EXAMPLE_G, EXAMPLE_TAU)
+    script.main(tmp_path)
+    committed = sorted(p.name for p in EXAMPLE.glob("*.csv"))
+    assert committed == sorted(p.name for p in tmp_path.glob("*.csv")) == \
+        ["B2_1.csv", "B3_1.csv", "B4_1.csv"]
+    for name in committed:
+        a, b = pd.read_csv(EXAMPLE / name), pd.read_csv(tmp_path / name)
+        assert list(a.columns) == list(b.columns) and len(a) == len(b)
+        np.testing.assert_allclose(a.to_numpy(), b.to_numpy(), rtol=0, atol=2e-4)
