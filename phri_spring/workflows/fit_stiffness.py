@@ -75,13 +75,15 @@ class FitStiffnessResult:
     Attributes
     ----------
     input_path : Path
-    locations : list of LocationFit or ExponentialLocationFit
-        Row-major order (A0, A1, ..., C6); ExponentialLocationFit with the exponential law.
+    locations : list of LocationFit, ExponentialLocationFit or QlvLocationFit
+        Row-major order (A0, A1, ..., C6); ExponentialLocationFit with the exponential law,
+        QlvLocationFit with the qlv law.
     skipped : list of SkippedTrial
         Trials left out with ``skip_bad_trials``.
     table : pandas.DataFrame
         The fit CSV (docs/model.md section 7 columns, with the exponential law
-        :data:`STIFFENING_COLUMNS`, then :data:`QUALITY_COLUMNS`).
+        :data:`STIFFENING_COLUMNS`, with the qlv law the relaxation columns, then
+        :data:`QUALITY_COLUMNS`).
     trials_table : pandas.DataFrame
         One row per trial.
     warnings : list of str
