@@ -6,10 +6,16 @@ from pathlib import Path
 
 import click
 
+from phri_spring.workflows.fit_laws import ELASTIC_PARTS, FIT_LAWS
+
 from ._common import info, warn
 
 
+_LAW_HELP = " ".join(f"{name}: {text}." for name, text in FIT_LAWS.items())
+
+
 @click.command("fit-stiffness", context_settings={"help_option_names": ["-h", "--help"]})
+@click.pass_context
 @click.argument("input_path", metavar="INPUT", type=click.Path(path_type=Path))
 @click.option("-o", "--output", type=click.Path(path_type=Path), required=True,
               metavar="OUT.csv", help="Stiffness table to write (a valid tissue.stiffness).")
@@ -25,26 +31,31 @@ from ._common import info, warn
               show_default=True, help="Unit of the displacement column.")
 @click.option("--plots", type=click.Path(path_type=Path), default=None, metavar="DIR",
               help="Write force_displacement.png (Fig. 6a) and stiffness_map.png (Fig. 6b) "
-                   "into DIR.")
+                   "into DIR (force_time.png in place of the first with --law qlv).")
 @click.option("--skip-bad-trials", is_flag=True,
               help="Leave bad trials out with a warning (n_trials shows it) instead of "
                    "failing.")
 @click.option("--min-r2", type=click.FloatRange(max=1.0), default=0.98, show_default=True,
-              metavar="R2", help="Flag locations with an unloading fit R^2 below this.")
+              metavar="R2", help="Flag locations with an unloading fit R^2 below this "
+                                    "(with --law qlv: the fit of the force over time).")
 @click.option("--max-trial-spread", type=click.FloatRange(min=0.0), default=0.10,
               show_default=True, metavar="FRACTION",
               help="Flag locations whose trials differ by more than this fraction of their "
                    "mean, (max - min) / mean.")
 @click.option("--trials-csv", type=click.Path(path_type=Path), default=None, metavar="FILE",
               help="Also write one row per trial (slopes, R^2, onset, zero level ...).")
-@click.option("--law", type=click.Choice(["linear", "exponential"]), default="linear",
-              show_default=True,
-              help="linear: the unloading slope [N/m]. exponential: k0 [N/m] and the "
-                   "stiffening rate beta [1/m] of F = (k0/beta)(exp(beta (d - d0)) - 1) on "
-                   "the same unloading strokes, contact point d0 free.")
+@click.option("--law", type=click.Choice(list(FIT_LAWS)), default="linear",
+              show_default=True, help=_LAW_HELP)
+@click.option("--elastic", type=click.Choice(list(ELASTIC_PARTS)), default=None,
+              help="Elastic (instantaneous) part of the qlv law: F = k d, or "
+                   "F = (k/beta)(exp(beta d) - 1). Default linear; --law qlv only.")
+@click.option("--relaxation-terms", type=click.IntRange(1, 4), default=None, metavar="N",
+              help="Prony terms of the qlv law (fractions and times free). Default 2; "
+                   "--law qlv only.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line (warnings still shown).")
-def fit_stiffness(input_path, output, zero_window, onset_threshold, displacement_unit, plots,
-                  skip_bad_trials, min_r2, max_trial_spread, trials_csv, law, quiet):
+def fit_stiffness(ctx, input_path, output, zero_window, onset_threshold, displacement_unit,
+                  plots, skip_bad_trials, min_r2, max_trial_spread, trials_csv, law, elastic,
+                  relaxation_terms, quiet):
     """Fit the tissue stiffness map [N/m] from indenter recordings.
 
     INPUT is a folder of trial files named <label>_<trial>.csv (e.g. B3_2.csv;
@@ -68,17 +79,41 @@ def fit_stiffness(input_path, output, zero_window, onset_threshold, displacement
     trials [1/m]) follow n_trials; OUT.csv is then both tissue.stiffness and
     tissue.stiffening. A fit that fails or finds no stiffening is a warning.
 
+    With --law qlv the trials must follow the force over time: a hold of 1 s or
+    more after the ramp, or trials of a location at loading rates 2x apart. Per
+    location all its trials are fitted together; stiffness_N_per_m is k, the
+    instantaneous stiffness of the elastic part (with --elastic exponential the
+    stiffening columns follow), then relaxation_fraction_<i> [-] and
+    relaxation_time_<i>_s [s] per Prony term; std_N_per_m is left empty. The
+    summary line gives the tissue.relaxation a config takes (mean over locations).
+    --plots writes force_time.png (force over time with the fit) instead of
+    force_displacement.png.
+
     \b
-    Example:
+    Examples:
       phri fit-stiffness examples/indenter -o stiffness.csv --plots figs/
+      phri fit-stiffness examples/indenter_qlv -o qlv.csv --law qlv --plots figs/
     """
+    from click.core import ParameterSource
+
     from phri_spring.workflows.fit_stiffness import (check_fit_outputs, fit_stiffness as run,
                                                      write_fit)
 
+    if law == "qlv" and ctx.get_parameter_source("max_trial_spread") \
+            is ParameterSource.COMMANDLINE:
+        raise click.UsageError("--max-trial-spread does not apply to --law qlv: the trials "
+                               "of a location are fitted together, there is no spread "
+                               "between trial fits")
+    if law != "qlv":
+        for name, value in (("--elastic", elastic), ("--relaxation-terms", relaxation_terms)):
+            if value is not None:
+                raise click.UsageError(f"{name} applies to --law qlv only (the {law} law "
+                                       "has no relaxation)")
     check_fit_outputs(input_path, output, plots=plots, trials_csv=trials_csv)
     result = run(input_path, zero_window=zero_window, onset_threshold=onset_threshold,
                  displacement_unit=displacement_unit, skip_bad_trials=skip_bad_trials,
-                 min_r2=min_r2, max_trial_spread=max_trial_spread, law=law)
+                 min_r2=min_r2, max_trial_spread=max_trial_spread, law=law,
+                 elastic=elastic, relaxation_terms=relaxation_terms)
     for message in result.warnings:
         warn(message)
     written = write_fit(result, output, plots=plots, trials_csv=trials_csv)

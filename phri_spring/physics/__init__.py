@@ -22,5 +22,7 @@ No file or config access and no printing happens here. Modules:
 - :mod:`~phri_spring.physics.indentation` indenter force-displacement analysis (linear fit)
 - :mod:`~phri_spring.physics.indentation_exponential` the exponential-law fit of indenter curves
 - :mod:`~phri_spring.physics.indentation_signal` indenter signal windows (contact, unloading branch)
+- :mod:`~phri_spring.physics.indentation_qlv` the quasi-linear viscoelastic fit of indenter trials over time
+- :mod:`~phri_spring.physics.indentation_qlv_window` a trial's contact window for it, identifiability
 - :mod:`~phri_spring.physics.metrics`    RMSE and zeroing used by comparisons
 """

@@ -19,6 +19,10 @@ F = (k0/beta)(exp(beta (d - d0)) - 1) is fitted to the same unloading strokes
 instead (:mod:`phri_spring.physics.indentation_exponential`): the CSV's stiffness
 is then k0 and it gains the stiffening rate beta [1/m] and its SD over trials.
 
+With ``law="qlv"`` the trials must follow the force over time (a hold after the
+ramp, or several ramp rates): quasi-linear viscoelastic tissue, an elastic part
+and a Prony series, is fitted per location (:mod:`phri_spring.workflows.fit_stiffness_qlv`).
+
 The method is in :mod:`phri_spring.physics.indentation`; the file formats in
 :mod:`phri_spring.io.indenter`. Nothing here prints: warnings come back in
 ``result.warnings``.
@@ -43,10 +47,11 @@ from ..physics.indentation_exponential import (ExponentialLocationFit,
                                                fit_location_exponential,
                                                fit_trial_exponential)
 from ..physics.tissue_laws import ExponentialLaw
+from .fit_laws import ELASTIC_PARTS, law_names
 
 __all__ = ["FitStiffnessResult", "fit_stiffness", "write_fit", "write_plots",
            "check_fit_outputs", "QUALITY_COLUMNS", "PLOT_FILES", "LAWS",
-           "STIFFENING_COLUMNS"]
+           "STIFFENING_COLUMNS", "QLV_PLOT_FILES", "plot_files"]
 
 #: quality columns of the fit CSV, after :data:`~phri_spring.io.indenter.STIFFNESS_COLUMNS`
 QUALITY_COLUMNS = ("n_strokes", "r2_min", "loading_slope_N_per_m", "hysteresis_ratio",
@@ -54,8 +59,10 @@ QUALITY_COLUMNS = ("n_strokes", "r2_min", "loading_slope_N_per_m", "hysteresis_r
                    "flags")
 #: files written by :func:`write_plots`
 PLOT_FILES = ("force_displacement.png", "stiffness_map.png")
-#: the indenter laws :func:`fit_stiffness` fits
-LAWS = ("linear", "exponential")
+#: files written by :func:`write_plots` for the ``qlv`` law
+QLV_PLOT_FILES = ("force_time.png", "stiffness_map.png")
+#: the indenter laws :func:`fit_stiffness` fits (the registry of :mod:`.fit_laws`)
+LAWS = law_names()
 #: columns the exponential law adds after the stiffness columns: the column the config reads
 #: for ``tissue.stiffening`` (the law's own ``csv_column``), then its SD over the trials
 STIFFENING_COLUMNS = (ExponentialLaw.parameters[0].csv_column, "stiffening_std_per_m")
@@ -68,13 +75,15 @@ class FitStiffnessResult:
     Attributes
     ----------
     input_path : Path
-    locations : list of LocationFit or ExponentialLocationFit
-        Row-major order (A0, A1, ..., C6); ExponentialLocationFit with the exponential law.
+    locations : list of LocationFit, ExponentialLocationFit or QlvLocationFit
+        Row-major order (A0, A1, ..., C6); ExponentialLocationFit with the exponential law,
+        QlvLocationFit with the qlv law.
     skipped : list of SkippedTrial
         Trials left out with ``skip_bad_trials``.
     table : pandas.DataFrame
         The fit CSV (docs/model.md section 7 columns, with the exponential law
-        :data:`STIFFENING_COLUMNS`, then :data:`QUALITY_COLUMNS`).
+        :data:`STIFFENING_COLUMNS`, with the qlv law the relaxation columns, then
+        :data:`QUALITY_COLUMNS`).
     trials_table : pandas.DataFrame
         One row per trial.
     warnings : list of str
@@ -93,7 +102,7 @@ class FitStiffnessResult:
 
     @property
     def law(self) -> str:
-        """The law fitted, ``linear`` or ``exponential``."""
+        """The law fitted, ``linear``, ``exponential`` or ``qlv``."""
         return self.settings.get("law", "linear")
 
     @property
@@ -117,6 +126,10 @@ class FitStiffnessResult:
 
     def summary_line(self) -> str:
         """``stiffness over 21 locations: 4242 +- 251.5 N/m (mean +- SD)``."""
+        if self.law == "qlv":
+            from .fit_stiffness_qlv import qlv_summary
+
+            return qlv_summary(self.locations, self.settings.get("elastic", "linear"))
         mean, sd, n = self.summary()
         if self.law == "exponential":
             b_mean, b_sd, _ = location_statistics(self.stiffening)
@@ -145,7 +158,9 @@ def _positive(value, name: str, allow_none: bool = False):
 def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: float | None = None,
                   displacement_unit: str = "mm", skip_bad_trials: bool = False,
                   min_r2: float = DEFAULT_MIN_R2, max_trial_spread: float = DEFAULT_MAX_SPREAD,
-                  reversal: float | None = None, law: str = "linear") -> FitStiffnessResult:
+                  reversal: float | None = None, law: str = "linear",
+                  elastic: str | None = None,
+                  relaxation_terms: int | None = None) -> FitStiffnessResult:
     """Fit the tissue stiffness of every location from indenter recordings.
 
     Parameters
@@ -173,7 +188,14 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
         ``linear``: the unloading slope (the paper). ``exponential``: k0 and the
         stiffening rate beta of F = (k0/beta)(exp(beta (d - d0)) - 1) on the same
         unloading strokes, d0 free per stroke; a fit that fails or ends on beta's
-        bound is a warning and a flag, not an error.
+        bound is a warning and a flag, not an error. ``qlv``: quasi-linear
+        viscoelastic tissue over time, fitted per location to all its trials (a hold
+        after the ramp, or loading rates 2x apart); ``reversal`` and
+        ``max_trial_spread`` do not enter it (one joint fit per location).
+    elastic : {'linear', 'exponential'}, optional
+        The elastic part of the ``qlv`` law (default linear); only with ``law="qlv"``.
+    relaxation_terms : int, optional
+        Prony terms of the ``qlv`` law, 1 to 4 (default 2); only with ``law="qlv"``.
 
     Returns
     -------
@@ -201,12 +223,18 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
                          key="displacement_unit")
     if law not in LAWS:
         raise UsageError(f"expected one of {', '.join(LAWS)}, got {law!r}", key="law")
+    elastic, relaxation_terms = _qlv_options(law, elastic, relaxation_terms)
     input_path = Path(input_path)
     warnings: list[str] = []
 
     rec = read_indenter(input_path, displacement_unit=displacement_unit,
                         skip_bad=skip_bad_trials)
     skipped = list(rec.skipped)
+    if law == "qlv":
+        return _fit_qlv(rec, input_path, skipped, zero_window=zero_window,
+                        onset_threshold=onset_threshold, displacement_unit=displacement_unit,
+                        skip_bad_trials=skip_bad_trials, min_r2=min_r2,
+                        terms=relaxation_terms, elastic=elastic)
 
     by_location: dict[str, list] = {}
     trial_rows = []
@@ -312,6 +340,65 @@ def fit_stiffness(input_path, *, zero_window: float = 3.0, onset_threshold: floa
                               settings=settings)
 
 
+def _qlv_options(law, elastic, terms):
+    """(elastic, terms) checked: defaults with ``qlv``, refused with another law."""
+    from ..physics.indentation_qlv import DEFAULT_TERMS, MAX_TERMS
+
+    if law != "qlv":
+        for key, value in (("elastic", elastic), ("relaxation_terms", terms)):
+            if value is not None:
+                raise UsageError(f"applies to the qlv law only (the {law} law has no "
+                                 "relaxation); expected it with law qlv", key=key)
+        return None, None
+    elastic = "linear" if elastic is None else elastic
+    if elastic not in ELASTIC_PARTS:
+        raise UsageError(f"expected one of {', '.join(ELASTIC_PARTS)}, got {elastic!r}",
+                         key="elastic")
+    terms = DEFAULT_TERMS if terms is None else terms
+    if isinstance(terms, bool) or not isinstance(terms, (int, np.integer)) \
+            or not 1 <= terms <= MAX_TERMS:
+        raise UsageError(f"expected a whole number from 1 to {MAX_TERMS}, got {terms!r}",
+                         key="relaxation_terms")
+    return elastic, int(terms)
+
+
+def _fit_qlv(rec, input_path, skipped, *, zero_window, onset_threshold, displacement_unit,
+             skip_bad_trials, min_r2, terms, elastic) -> FitStiffnessResult:
+    """The ``qlv`` branch of :func:`fit_stiffness` (:mod:`.fit_stiffness_qlv`)."""
+    import pandas as pd
+
+    from .fit_stiffness_qlv import fit_qlv_locations, relaxation_columns
+
+    locations, rows, trial_rows, warnings, more = fit_qlv_locations(
+        rec.trials, zero_window=zero_window, onset_threshold=onset_threshold,
+        skip_bad_trials=skip_bad_trials, min_r2=min_r2, terms=terms, elastic=elastic)
+    skipped = skipped + more
+    warnings[:0] = [f"skipped {sk.location} trial {sk.trial}: {sk.error}"
+                    if sk.location is not None else f"skipped a file: {sk.error}"
+                    for sk in skipped]
+    if not locations:
+        first = skipped[0].error if skipped else None
+        raise DataError("no usable trials" + (f" (first problem: {first})" if first else ""),
+                        file=input_path)
+    n_skipped: dict[str, int] = {}
+    for sk in skipped:
+        if sk.location is not None:
+            n_skipped[sk.location] = n_skipped.get(sk.location, 0) + 1
+    for row in rows:
+        row["n_trials_skipped"] = n_skipped.get(row["location"], 0)
+    extra = list(STIFFENING_COLUMNS) if elastic == "exponential" else []
+    columns = (list(STIFFNESS_COLUMNS) + extra + relaxation_columns(terms)
+               + list(QUALITY_COLUMNS))
+    settings = {"zero_window_s": zero_window, "onset_threshold_N": onset_threshold,
+                "displacement_unit": displacement_unit, "skip_bad_trials": skip_bad_trials,
+                "min_r2": min_r2, "layout": rec.layout, "law": "qlv", "elastic": elastic,
+                "relaxation_terms": terms}
+    return FitStiffnessResult(input_path=input_path, locations=locations, skipped=skipped,
+                              table=pd.DataFrame(rows, columns=columns),
+                              trials_table=pd.DataFrame(trial_rows), warnings=warnings,
+                              settings=settings)
+
+
 def _exponential_trial_row(row: dict, efit) -> dict:
     """A trials-table row with the exponential fit's k0, beta, contact points and R^2."""
     out = {}
@@ -375,11 +462,22 @@ def check_fit_outputs(input_path, output, *, plots=None, trials_csv=None) -> Non
                                  key="--plots")
 
 
+def plot_files(law: str = "linear") -> tuple:
+    """The files :func:`write_plots` writes for ``law``."""
+    return QLV_PLOT_FILES if law == "qlv" else PLOT_FILES
+
+
 def _save_plots(result: FitStiffnessResult, folder: Path, dpi: int) -> list[Path]:
     from ..reports.indenter_figures import force_displacement_grid, stiffness_map
 
+    if result.law == "qlv":
+        from ..reports.indenter_qlv_figures import force_time_grid
+
+        first = force_time_grid
+    else:
+        first = force_displacement_grid
     files = []
-    for name, make in zip(PLOT_FILES, (force_displacement_grid, stiffness_map)):
+    for name, make in zip(plot_files(result.law), (first, stiffness_map)):
         fig = make(result.locations)
         path = folder / name
         with naming(path):
@@ -389,17 +487,19 @@ def _save_plots(result: FitStiffnessResult, folder: Path, dpi: int) -> list[Path
 
 
 def write_plots(result: FitStiffnessResult, directory, *, dpi: int = 150) -> list[Path]:
-    """Write :data:`PLOT_FILES` into ``directory`` (created if missing), all or nothing.
+    """Write :func:`plot_files` into ``directory`` (created if missing), all or nothing.
 
     ``force_displacement.png``: Fig. 6a-like force-depth curves of every location
     with the fitted unloading lines (exponential curves with that law);
     ``stiffness_map.png``: Fig. 6b-like rows x angles heat map with the values
-    (k0 with the exponential law) written in.
+    (k0 with the exponential law, k with the qlv law) written in. With the qlv law
+    ``force_time.png`` replaces ``force_displacement.png``: the force of every
+    trial over time with the fitted model, one panel per location.
     """
     directory = Path(directory)
     with atomic_directory(directory) as tmp:
         _save_plots(result, Path(tmp), dpi)
-    return [directory / n for n in PLOT_FILES]
+    return [directory / n for n in plot_files(result.law)]
 
 
 def write_fit(result: FitStiffnessResult, output, *, plots=None, trials_csv=None,
@@ -431,7 +531,7 @@ def write_fit(result: FitStiffnessResult, output, *, plots=None, trials_csv=None
         if plots is not None:
             pdir = Path(stack.enter_context(atomic_directory(plots)))
             _save_plots(result, pdir, dpi)
-            written += [Path(plots) / n for n in PLOT_FILES]
+            written += [Path(plots) / n for n in plot_files(result.law)]
         if trials_csv is not None:
             tmp = stack.enter_context(atomic_file(trials_csv, suffix=".csv"))
             write_trials_csv(result.trials_table, tmp, atomic=False)
