@@ -175,3 +175,72 @@ def test_a_rested_tissue_carries_the_relaxed_load():
                                    "delta0": base.delta0})
     ref = solve(relaxed, W[0])
     np.testing.assert_allclose(sol.forces[0], ref.forces, rtol=1e-8, atol=1e-9)
+
+
+# ---------------------------------------------------------------- one element, closed forms
+def _one_element(times, r_z, Ms_zz, prony, k=2000.0):
+    """One element along z (rigid cuff, linear tissue k [N/m]) with a parallel spring
+    eta k' Ms_zz along z and every other axis held: its force and compression per sample."""
+    from phri_spring.physics.history_kernel import solve_history
+    from phri_spring.physics.relaxation import step_coefficients
+
+    t = np.asarray(times, float)
+    m = len(t)
+    dt = np.concatenate([[np.inf], np.diff(t)])
+    A, Bc = step_coefficients(prony, dt)
+    r = np.zeros((m, 6))
+    r[:, 2] = r_z
+    b = np.array([[0, 0, 1.0, 0, 0, 0]])
+    Ms = np.diag([1.0, 1.0, Ms_zz, 1.0, 1.0, 1.0])[None]
+    T = len(prony.g)
+    u, f = np.zeros((m, 6)), np.zeros((m, 1))
+    solve_history(r, A, Bc, np.ones(m), b, Ms, np.zeros((1, 3, 6)), np.zeros((1, 2, 3)),
+                  np.zeros(1), np.array([k]), np.array([np.inf]), np.ones(1), np.zeros(1), False,
+                  prony.relaxed, prony.g, np.zeros((T, 1)), np.zeros((T, 1, 3)), np.zeros(1),
+                  np.zeros((1, 3)), np.zeros(6), u, f, np.zeros((m, 1, 2)),
+                  np.zeros(m, dtype=np.int64), np.zeros(m, dtype=bool), 100, 1e-12)
+    return f[:, 0], u[:, 2]
+
+
+def test_one_element_under_a_step_load_creeps_as_the_closed_form():
+    """Standard linear solid G = G_inf + g exp(-t/tau) under a force step F_a -> F_b at t1:
+    d(t) = F_a / (G_inf k) + (F_b - F_a) / k * (1/G_inf - (1/G_inf - 1) exp(-(t - t1) G_inf / tau))
+    (creep compliance of the SLS; retardation time tau / G_inf)."""
+    k, g, tau = 2000.0, 0.4, 0.8
+    prony = Prony([g], [tau])
+    Ginf = 1 - g
+    t1, eps = 1.0, 1e-9
+    # under a held force F^e is not linear between samples, which the recursion assumes:
+    # its error is second order in the step (dt / tau_c = 0.0075 here)
+    t = np.concatenate([[0.0, 0.5, t1], t1 + eps + np.linspace(0.0, 6.0, 601)])
+    Fa, Fb = 3.0, 10.0
+    r_z = np.where(t > t1, Fb, Fa)
+    f, d = _one_element(t, r_z, 1e-12, prony, k)     # the other axes held, z free
+    np.testing.assert_allclose(f, r_z, rtol=1e-9)               # force controlled
+    after = t > t1
+    s = t[after] - t1
+    closed = Fa / (Ginf * k) + (Fb - Fa) / k * (1 / Ginf - (1 / Ginf - 1) * np.exp(-s * Ginf / tau))
+    np.testing.assert_allclose(d[~after], Fa / (Ginf * k), rtol=1e-10)
+    np.testing.assert_allclose(d[after], closed, rtol=1e-5)
+
+
+def test_one_element_under_a_step_compression_relaxes_as_the_closed_form():
+    """Compression ramped to d0 over T_r then held (displacement held by a parallel spring
+    1e9 times stiffer): F(t) = k d0 [G_inf + sum g_i tau_i / T_r (exp(-(t - T_r)/tau_i)
+    - exp(-t/tau_i))] for t >= T_r, t from the ramp's start (Fung 1993, ch. 7)."""
+    k = 2000.0
+    prony = Prony([0.3, 0.25], [0.1, 1.5])
+    dt, Tr, d0 = 0.01, 0.01, 0.004
+    t = dt * np.arange(400)
+    target = np.clip((t - 1.0) / Tr, 0.0, 1.0) * d0           # ramp from t = 1 s
+    c1 = prony.relaxed + np.sum(prony.g * prony.tau / dt * -np.expm1(-dt / prony.tau))
+    big = 1e9
+    r_z = big * c1 * k * target                               # the parallel spring's force
+    f, d = _one_element(t, r_z, big, prony, k)
+    np.testing.assert_allclose(d, target, rtol=1e-7, atol=1e-15)
+    hold = t >= 1.0 + Tr - 1e-12
+    s = t[hold] - 1.0
+    closed = k * d0 * (prony.relaxed + np.sum(
+        prony.g * prony.tau / Tr * (np.exp(-(s[:, None] - Tr) / prony.tau)
+                                    - np.exp(-s[:, None] / prony.tau)), axis=1))
+    np.testing.assert_allclose(f[hold], closed, rtol=1e-6)

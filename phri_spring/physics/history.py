@@ -37,7 +37,8 @@ from .geometry import element_jacobians
 from .relaxation import Prony, step_coefficients
 from .solution import Solution
 
-__all__ = ["HistoryModel", "HistoryState", "activation_scale", "kernel"]
+__all__ = ["HistoryModel", "HistorySolver", "HistoryState", "activation_scale", "kernel",
+           "warm_up"]
 
 _KERNEL = None
 _WARMING = None
@@ -166,8 +167,20 @@ class HistoryModel:
         """Forget the history: the next sample finds the tissue rested."""
         self.state = HistoryState(len(self.relaxation.g), len(self._kt))
 
+    def solve_rested(self, wrench, activation=None, *, max_iterations: int = 100) -> Solution:
+        """Every sample as held long (the tissue rested under it, relaxed), independently of
+        the others and of the model's history: what a static question (an interface
+        stiffness, a design's load set, a comparison's held conditions) asks."""
+        W = np.atleast_2d(np.asarray(wrench, dtype=float))
+        m = len(W)
+        fresh = HistoryState(len(self.relaxation.g), len(self._kt))
+        # an infinite step before every sample forgets all history (a = b = 0)
+        return self.solve_log(W, np.zeros(m), activation, max_iterations=max_iterations,
+                              state=fresh, keep=False, _rested=True)
+
     def solve_log(self, wrench, times, activation=None, *, max_iterations: int = 100,
-                  state: HistoryState | None = None, keep: bool = True) -> Solution:
+                  state: HistoryState | None = None, keep: bool = True,
+                  _rested: bool = False) -> Solution:
         """Solve the samples of a log in order, from the model's state (or ``state``).
 
         Parameters
@@ -194,7 +207,7 @@ class HistoryModel:
         st = (self.state if state is None else state).copy()
         dt = np.empty(m)
         dt[0] = np.inf if st.time is None else t[0] - st.time
-        dt[1:] = np.diff(t)
+        dt[1:] = np.inf if _rested else np.diff(t)
         if (dt < 0).any():
             raise ValueError("times: expected non-decreasing sample times")
         A, Bc = step_coefficients(self.relaxation, dt)
@@ -229,7 +242,33 @@ class HistoryModel:
     def rested_forces(self, wrench, activation: float = 0.0, *, max_iterations: int = 100):
         """Forces (n,) [N] of the tissue rested long under ``wrench`` (6,), without touching
         the model's history: the relaxed answer (a baseline of a log)."""
-        fresh = HistoryState(len(self.relaxation.g), len(self._kt))
-        sol = self.solve_log(np.atleast_2d(wrench), [0.0], [activation],
-                             max_iterations=max_iterations, state=fresh, keep=False)
+        return self.solve_rested(np.atleast_2d(wrench), [activation],
+                                 max_iterations=max_iterations).forces[0]
+
+
+class HistorySolver:
+    """One sample at a time, in order (``phri live``): the interface of
+    :class:`~phri_spring.physics.solver.Solver` for a :class:`HistoryModel`, whose
+    ``forces`` also takes the sample's time [s] and activation."""
+
+    def __init__(self, model: HistoryModel, max_iterations: int = 100):
+        self.model = model
+        self.max_iterations = int(max_iterations)
+        self.last_iterations = 0
+        self.last_converged = True
+        self.last_contact = np.zeros(len(model.k), dtype=bool)
+        self.last_tangential = None
+
+    def forces(self, wrench, time: float = 0.0, activation: float | None = None) -> np.ndarray:
+        """Normal force f_e (n,) [N] of the next sample (NaN if not converged)."""
+        W = np.asarray(wrench, dtype=float)
+        if W.shape != (6,) or not np.all(np.isfinite(W)):
+            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
+        sol = self.model.solve_log(W[None], [float(time)],
+                                   None if activation is None else [activation],
+                                   max_iterations=self.max_iterations)
+        self.last_iterations = int(sol.iterations[0])
+        self.last_converged = bool(sol.converged[0])
+        self.last_contact = sol.contact[0]
+        self.last_tangential = sol.tangential[0]
         return sol.forces[0]

@@ -36,8 +36,8 @@ else:
         # cache when that is read-only), so only the first run of an install compiles;
         # the helpers are inlined into the one loop, so a run loads one cached function
         if fn.__name__ == "solve_history":
-            return _njit(cache=True, nogil=True)(fn)
-        return _njit(inline="always")(fn)
+            return _njit(cache=True, nogil=True, error_model="numpy")(fn)
+        return _njit(inline="always", error_model="numpy")(fn)
 
 __all__ = ["solve_history", "NUMBA"]
 

@@ -273,6 +273,11 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     if int(max_iterations) < 1:
         raise ValueError("max_iterations: expected >= 1")
     max_iterations = int(max_iterations)
+    if getattr(model, "has_history", False):   # no times: every sample held long (rested)
+        sol = model.solve_rested(W, max_iterations=max_iterations)
+        return sol if not single else Solution(
+            u=sol.u[0], forces=sol.forces[0], iterations=sol.iterations[0],
+            converged=sol.converged[0], contact=sol.contact[0], tangential=sol.tangential[0])
     if interface_mu(model) is not None:
         return _solve_friction(model, W, single, cache)
     if hasattr(model, "solve_wrenches"):

@@ -308,7 +308,12 @@ class LiveRun:
     # ------------------------------------------------------------------ the loop
     def _loop(self, summary: LiveSummary, status) -> None:
         cfg, model = self.cfg, self.model
-        self._solver = Solver(model, max_iterations=cfg.max_iterations)
+        if getattr(model, "has_history", False):    # relaxing tissue: samples in order
+            from ..physics.history import HistorySolver
+
+            self._solver = HistorySolver(model, max_iterations=cfg.max_iterations)
+        else:
+            self._solver = Solver(model, max_iterations=cfg.max_iterations)
         self._inv_area = np.asarray(model.inv_area_kpa, dtype=float)
         self._batch = {"time": [], "forces": [], "abs": [], "contact": [], "its": [],
                        "conv": []}
@@ -383,7 +388,8 @@ class LiveRun:
         t0 = time.monotonic()
         solver = self._solver
         W = cuff_wrench(self.cfg, w[None])[0]
-        f_abs = solver.forces(W)
+        f_abs = solver.forces(W, t) if getattr(self.model, "has_history", False) \
+            else solver.forces(W)
         forces = f_abs if self._f_base is None else f_abs - self._f_base
         contact = solver.last_contact
         conv = solver.last_converged
