@@ -28,6 +28,8 @@ of the compliant arm, and every function below runs it::
 - :func:`model_from_config`    config -> :class:`~phri_spring.physics.model.SpringModel`
 - :func:`cuff_wrench`          load-cell readings (m, 6) -> wrench on the cuff (m, 6) [N, N*m]
 - :func:`interface_stiffness`  tangent 6x6 stiffness of the interface at an equilibrium
+- :class:`Prony`               a relaxation function G(t) (``tissue.relaxation``)
+- :class:`HistoryModel`        a spring model solved in time: relaxing tissue, muscle activation
 
 The deep module paths (``phri_spring.workflows.simulate.simulate`` ...) keep working.
 
@@ -55,6 +57,8 @@ _LAZY = {
     "model_from_config": ("phri_spring.workflows.common", "model_from_config"),
     "cuff_wrench": ("phri_spring.workflows.common", "cuff_wrench"),
     "interface_stiffness": ("phri_spring.physics.stiffness", "interface_stiffness"),
+    "HistoryModel": ("phri_spring.physics.history", "HistoryModel"),
+    "Prony": ("phri_spring.physics.relaxation", "Prony"),
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

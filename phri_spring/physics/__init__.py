@@ -25,4 +25,7 @@ No file or config access and no printing happens here. Modules:
 - :mod:`~phri_spring.physics.indentation_qlv` the quasi-linear viscoelastic fit of indenter trials over time
 - :mod:`~phri_spring.physics.indentation_qlv_window` a trial's contact window for it, identifiability
 - :mod:`~phri_spring.physics.metrics`    RMSE and zeroing used by comparisons
+- :mod:`~phri_spring.physics.relaxation` QLV relaxation functions (Prony series), their recursion
+- :mod:`~phri_spring.physics.history`    spring models solved in time: relaxing tissue, activation
+- :mod:`~phri_spring.physics.history_kernel` the sample-by-sample loop behind it (numba when installed)
 """
