@@ -134,9 +134,9 @@ def weighted_percentile(values, weights, q: float) -> float:
 
 
 def max_displacement_m(u: np.ndarray, points: np.ndarray) -> float:
-    """max over samples and elements of |t + w x p_e| [m] (u = (t, w), shape (m, 6)).
+    """max over samples and elements of ``|t + w x p_e|`` [m] (u = (t, w), shape (m, 6)).
 
-    Exact: |t + w x p_e| <= |t| + |w| max_e |p_e| bounds every sample; only the
+    Exact: ``|t + w x p_e| <= |t| + |w| max_e |p_e|`` bounds every sample; only the
     samples whose bound reaches the largest exact value among the 64 highest
     bounds are evaluated element by element.
     """

@@ -216,7 +216,8 @@ def test_docs_table_matches_the_command():
 def test_docs_output_block_is_the_real_output(monkeypatch):
     monkeypatch.chdir(ROOT)
     text = DOC.read_text()
-    block = re.search(r"```\n(interface stiffness of Harmony.*?)```", text, flags=re.S).group(1)
+    block = re.search(r"```console\n\$ phri stiffness configs/harmony_upper_arm.yaml\n"
+                      r"(interface stiffness of Harmony.*?)```", text, flags=re.S).group(1)
     res = run("stiffness", "configs/harmony_upper_arm.yaml")
     assert res.exit_code == 0
     assert stdout_of(res) == block

@@ -235,7 +235,7 @@ class SetFactors(NamedTuple):
         u @ force_map.T + force_offset.
     abs_indicator_map : ndarray, shape (6, n)
     abs_indicator_offset : ndarray, shape (n,)
-        |indicator_map|, |indicator_offset|: the round-off scale of the indicator.
+        ``|indicator_map|``, ``|indicator_offset|``: the round-off scale of the indicator.
     report_map : ndarray, shape (6, n)
     report_offset : ndarray, shape (n,)
         The reported normal patch forces u @ report_map + report_offset [N] (0 outside S).

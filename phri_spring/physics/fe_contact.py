@@ -20,14 +20,14 @@ Contact of node i with plate e (a node two plates share touches the deeper one):
 x_n - (plate point)_n >= 0 along the node's normal, normal reaction lambda_n >= 0,
 lambda_n gap = 0. Frictionless (mu = 0): tangentially free (condensed). Coulomb
 (mu > 0): a touching node sticks (its tangential offset from the plate keeps its value
-at the start of the load step) while |lambda_t| <= mu lambda_n, else slides with
+at the start of the load step) while ``|lambda_t| <= mu lambda_n``, else slides with
 lambda_t = mu lambda_n e, e against its slip in the step (return mapping); the state is
 carried from step to step. mu = inf: touching nodes never slide (bonded). A node that
 touches a plate during a step grazes it (tangentially free) until the next step.
 
 Each step is a semismooth Newton (active-set) iteration: contact (released when
 pulling, touching when penetrating) and stick or slip by Alart and Curnier's augmented
-test |lambda_t - rho slip| <= mu lambda_n, the slip law linearised with its direction.
+test ``|lambda_t - rho slip| <= mu lambda_n``, the slip law linearised with its direction.
 For a set, the prescribed skin displacements are eliminated; the free ones, the plates'
 translations and u solve one linear system. The reported patch normal force is the
 coupled model's for the built-in FE (its ``N_out``): the recovered traction of the nodal

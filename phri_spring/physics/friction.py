@@ -6,7 +6,7 @@ element (spring model) or patch (coupled model) is in one of three states:
 * **released** -- it has lifted off and carries nothing: no normal force, no
   tangential force, no moment;
 * **stuck** -- it presses (normal force >= 0) and its tangential force stays within
-  the friction cone |P_t| <= mu P_n; its tangential (and, for a patch, rotational)
+  the friction cone ``|P_t| <= mu P_n``; its tangential (and, for a patch, rotational)
   motion is tied to the cuff, offset by the slip z it has accumulated;
 * **sliding** -- it presses and its tangential force is on the cone,
   P_t = mu P_n s with s the unit direction of its slip increment.

@@ -97,7 +97,7 @@ class CuffGeometry:
 
     @property
     def circumferential(self) -> np.ndarray:
-        """Unit tangent c_e = (n_e x e_x) / |n_e x e_x| of every element, shape (n, 3): along
+        """Unit tangent ``c_e = (n_e x e_x) / |n_e x e_x|`` of every element, shape (n, 3): along
         the skin outline toward increasing angle theta."""
         c = np.cross(self.normals, np.array([1.0, 0.0, 0.0]))
         return c / np.linalg.norm(c, axis=1, keepdims=True)

@@ -106,7 +106,7 @@ class HyperReduction:
     Attributes
     ----------
     scale : ndarray, shape (6,)
-        s: x = u / s, the largest |u_k| the identification reached [m, rad].
+        s: x = u / s, the largest ``|u_k|`` the identification reached [m, rad].
     wrench : ndarray, shape (K, 6)
         Coefficients of dR [N, N*m].
     normal : ndarray, shape (K, n)
@@ -131,7 +131,7 @@ class HyperReduction:
     info: dict = field(default_factory=dict)
 
     def range_ratio(self, u) -> np.ndarray:
-        """max(|F| / max_force, |M| / max_moment) (m,) of the linear wrench (F, M) = H u of
+        """``max(|F| / max_force, |M| / max_moment)`` (m,) of the linear wrench (F, M) = H u of
         poses u (m, 6): > 1 is outside the identified range."""
         return _box_norm(np.atleast_2d(u) @ self.range_map.T)
 
@@ -174,7 +174,7 @@ def _range_scale(max_force: float, max_moment: float) -> np.ndarray:
 def identification_poses(H, max_force: float, max_moment: float, rays: int,
                          seed: int = 0) -> np.ndarray:
     """Ray ends (rays, 6): u = H^-1 D d, d a random direction scaled to the range's edge,
-    max(|d[:3]|, |d[3:]|) = 1; half of them -d (antithetic).
+    ``max(|d[:3]|, |d[3:]|) = 1``; half of them -d (antithetic).
 
     H (6, 6) is the linear bonded model's stiffness; D as in :class:`HyperReduction`.
     """
@@ -202,7 +202,7 @@ def held_out_error(phi, Y, F, groups, folds: int = CV_FOLDS) -> float:
 
     Rays (``groups`` >= 0; -1: always fitted) are split into ``folds`` sets; each set is
     predicted by the fit to the others. Per held-out pose, the RMSE over the patches in %
-    of that pose's peak |F|; returned: the 95th percentile. It estimates the reduced
+    of that pose's peak ``|F|``; returned: the 95th percentile. It estimates the reduced
     model's error between its rays, which a fit residual does not (a cubic can follow
     289 poses closely and still swing between them).
     """
@@ -324,7 +324,7 @@ def solve_poses(red: HyperReduction, H, W, u0, *, tol: float = 1e-9,
     u0 : ndarray, shape (m, 6)
         Starting poses (e.g. :meth:`HyperReduction.start`).
     tol : float
-        Converged when |(dF, dM / arm)| <= tol (1 + |(W_F, W_M / arm)|), ``arm`` [m].
+        Converged when ``|(dF, dM / arm)| <= tol (1 + |(W_F, W_M / arm)|)``, ``arm`` [m].
 
     Returns
     -------

@@ -131,8 +131,10 @@ class ExponentialLocationFit:
         One per trial, in the order of ``linear.trials``.
     trial_stiffness, trial_stiffening : ndarray, shape (n_trials,)
         k0 [N/m] and beta [1/m] of the trials whose fit converged.
-    stiffness, std : float
-        Mean and sample SD (ddof = 1, NaN for one trial) of k0 over those trials [N/m].
+    stiffness : float
+        Mean of k0 over those trials [N/m].
+    std : float
+        Sample SD (ddof = 1, NaN for one trial) of k0 over those trials [N/m].
     stiffening, stiffening_std : float
         The same for beta [1/m].
     spread : float

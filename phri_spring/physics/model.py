@@ -92,9 +92,9 @@ class SpringModel(OnGeometry):
     delta0_b : ndarray, shape (n, 6)
         delta0_e b_e [m, m^2] (derived).
     b_absmax : ndarray, shape (6,)
-        max_e |b_ej| [-, m] (derived; round-off scale of the compression).
+        ``max_e |b_ej|`` [-, m] (derived; round-off scale of the compression).
     delta0_absmax : float
-        max_e |delta0_e| [m] (derived).
+        ``max_e |delta0_e|`` [m] (derived).
     inv_area_kpa : ndarray, shape (n,)
         1 / (1000 A_e) [1/(kPa*m^2) = 1/(1000 N)]: force [N] times it is pressure [kPa] (derived).
     friction_coefficient : float or None

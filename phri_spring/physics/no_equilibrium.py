@@ -7,14 +7,14 @@ says why, from the model's geometry and forces alone, the same for every arm mod
 
 * **friction capacity.** The normal forces of a cuff around the arm act through the
   arm's axis (x): they carry no axial force F_a and no torsion M_a about the axis. Those
-  two are carried by the tangential forces alone, each |t_e| <= mu f_n,e, so an element
+  two are carried by the tangential forces alone, each ``|t_e| <= mu f_n,e``, so an element
   contributes (t_axial, t_circ) to (F_a, M_a / R) (R the radius at the elements) and the
   set the interface can hold is the disc sqrt(F_a^2 + (M_a/R)^2) <= mu sum_e f_n,e. The
   normal forces are those the model gives the same wrench with bonded ties (mu -> inf,
   the paper's model): what the wrench presses into the arm. Beyond the disc the reason
   is the larger of the two demands: ``torsion beyond friction capacity`` with its
-  shortfall |M_a| - R sqrt((mu sum f_n)^2 - F_a^2) [N*m], or ``axial force beyond friction
-  capacity`` with |F_a| - sqrt((mu sum f_n)^2 - (M_a/R)^2) [N]: how much less would be
+  shortfall ``|M_a| - R sqrt((mu sum f_n)^2 - F_a^2)`` [N*m], or ``axial force beyond friction
+  capacity`` with ``|F_a| - sqrt((mu sum f_n)^2 - (M_a/R)^2)`` [N]: how much less would be
   held, the other demand kept.
 * **the strap.** Contacts only push; what holds the cuff against a pull is the strap's
   preload (the constant W_pre). The radial force and the bending moments of W + W_pre

@@ -25,8 +25,8 @@ For row r at x_r and angular location j at theta_j with angular span width_j:
   the weighted mean is continuous in p_e, exact on a cylinder to second order in the facet
   angle, and carries the limb's local taper (its x component). Triangle normals are oriented
   away from the axis one by one, so inconsistently wound triangles give the same normals.
-- **area** A_e: the exact area of the mesh inside the element's band |x - x_r| <= w_r / 2,
-  |theta - theta_j| <= width_j / 2 (every triangle clipped by the four planes; only the
+- **area** A_e: the exact area of the mesh inside the element's band ``|x - x_r| <= w_r / 2``,
+  ``|theta - theta_j| <= width_j / 2`` (every triangle clipped by the four planes; only the
   surface connected to the row's outline counts).
 - **turning** psi_e: the angle through which the outline's tangent turns between the rays at
   theta_j -+ width_j / 2, as the difference of the tangent angle at the two crossings. On a

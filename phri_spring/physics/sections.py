@@ -34,7 +34,7 @@ __all__ = ["SectionError", "Section", "CircleSection", "EllipseSection", "Outlin
 RHO_RANGE_M = (0.005, 0.3)
 #: fewest points of an outline (a cubic spline through fewer hardly describes a limb)
 MIN_OUTLINE_POINTS = 8
-#: largest |taper half-angle| we accept [deg]: limb segments taper by 2-9 deg; beyond
+#: largest ``|taper half-angle|`` we accept [deg]: limb segments taper by 2-9 deg; beyond
 #: 30 deg a cuff would slide off the cone, and the element areas grow as 1/cos(alpha)
 TAPER_LIMIT_DEG = 30.0
 
@@ -223,7 +223,7 @@ class EllipseSection(Section):
 class OutlineSection(Section):
     """The periodic cubic spline through points (y, z) [m] around the axis.
 
-    Parametrised by chord length: t_0 = 0, t_i = t_{i-1} + |P_i - P_{i-1}|, period the
+    Parametrised by chord length: t_0 = 0, ``t_i = t_{i-1} + |P_i - P_{i-1}|``, period the
     closed polygon's perimeter. Points in order of increasing angle; a last point equal
     to the first is dropped.
     """

@@ -148,7 +148,7 @@ class SpringSystem(ContactSystem):
         """Rows whose active set S agrees with the sign of the compression g, to round-off.
 
         The tolerance follows the round-off of g_e = delta0_e + b_e . u itself,
-        SET_RTOL * (max_e |delta0_e| + sum_j max_e |b_ej| |u_j|), so that it also
+        ``SET_RTOL * (max_e |delta0_e| + sum_j max_e |b_ej| |u_j|)``, so that it also
         holds when every compression is zero (shear alone carrying the load).
         """
         model = self.model

@@ -38,7 +38,7 @@ __all__ = ["solve_newton", "solve_newton_warm", "NEWTON_ITERATIONS", "RESIDUAL_R
 
 #: most Newton steps per sample (on top of the linear solve that starts it)
 NEWTON_ITERATIONS = 60
-#: a row is converged when |residual| <= RESIDUAL_RTOL * (force scale of its equations)
+#: a row is converged when ``|residual| <= RESIDUAL_RTOL`` * (force scale of its equations)
 RESIDUAL_RTOL = 1e-10
 _ARMIJO = 1e-4
 _HALVINGS = 40

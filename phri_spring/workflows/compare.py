@@ -105,7 +105,7 @@ class TrialComparison:
     cuff_wrench : ndarray, shape (c, 6)
         Mean wrench on the cuff [N, N*m], cuff frame.
     load_n : ndarray, shape (c,)
-        |mean force - baseline's mean force| [N].
+        ``|mean force - baseline's mean force|`` [N].
     """
 
     data: TrialData

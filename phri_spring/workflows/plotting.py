@@ -83,6 +83,8 @@ class MaxPool:
     bins : int
         Target number of groups (the figure's columns).
 
+    Notes
+    -----
     Call the object (it is the ``on_chunk`` hook of ``simulate_file``) with
     ``time (m,) [s]``, ``forces (m, n) [N]`` and ``peak_pressure (m,) [kPa]``,
     chunk after chunk, in order; then :meth:`result`.

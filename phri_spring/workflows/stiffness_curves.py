@@ -83,7 +83,9 @@ class StiffnessCurves:
 
     Attributes
     ----------
-    name, config_path, arm : str, str or None, str
+    name : str
+    config_path : str or None
+    arm : str
     load : ndarray
         Force [N] (axes x, y, z) or moment [N*m] (rx, ry, rz) the robot applies at the
         load-cell origin, signed.

@@ -1,6 +1,6 @@
 """Helpers of the fault-injection tests: run a real ``phri`` process and check what it left.
 
-Every case checks the same four things (README, "Errors and exit codes"): the exit status, a single
+Every case checks the same four things (docs/cli.md, "Errors and exit codes"): the exit status, a single
 line on stderr (no traceback, no Python warning, never "internal error"), an
 existing output byte-identical after a failure, and no temporary file left.
 """
