@@ -128,7 +128,7 @@ def qlv_window(time, displacement, force, *, zero_window: float = 3.0,
 
     Raises
     ------
-    TrialError
+    ~phri_spring.physics.indentation_signal.TrialError
         Time not increasing, no rest, no indentation, or too few samples in contact.
     """
     t = np.asarray(time, dtype=float)
@@ -185,7 +185,7 @@ def check_identifiable(windows) -> None:
 
     Raises
     ------
-    TrialError
+    ~phri_spring.physics.indentation_signal.TrialError
         Neither a hold of :data:`HOLD_MIN_S` nor loading rates :data:`RATE_RATIO_MIN` apart.
     """
     windows = list(windows)
