@@ -46,11 +46,11 @@ def init(file, preset, list_presets, example, force, quiet):
             mark = "  (default)" if name == DEFAULT_PRESET else ""
             click.echo(f"{name:<20} {preset_title(name)}{mark}")
         return
+    if file is None and preset is not None:
+        raise UsageError("--preset NAME needs the config FILE to write", key="--preset")
     if file is None and example is None:
         raise UsageError("expected a config FILE to write (or --example DIR, or --list)",
                          key="FILE")
-    if file is None and preset is not None:
-        raise UsageError("--preset NAME needs the config FILE to write", key="--preset")
     try:
         release = version("phri-spring")
     except PackageNotFoundError:  # pragma: no cover - run from a checkout never installed
