@@ -121,8 +121,8 @@ def main(argv=None):
 
     Every output file is closed and renamed before the command returns, so the
     process can end with ``os._exit``: tearing down numpy, pyarrow and pydantic
-    costs tens of milliseconds (measured: about 10 % of a short run) and does
-    nothing for the user. Tests call the click group, not this function.
+    takes time and does nothing for the user (what it costs is in
+    benchmarks/STARTUP.md). Tests call the click group, not this function.
     """
     import sys
 
