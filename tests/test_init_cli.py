@@ -158,3 +158,15 @@ def test_a_folder_as_file_and_a_file_as_example_folder_are_refused(tmp_path):
 def test_quiet_prints_nothing(tmp_path):
     res = run_phri("init", "-q", tmp_path / "c.yaml")
     assert res.exit_code == 0 and stderr_of(res) == "" and res.output == ""
+
+
+def test_presets_missing_from_a_stale_install_is_one_line(monkeypatch):
+    """An editable install made before configs/ was mapped has no phri_spring.presets."""
+    from importlib import resources
+
+    def missing(package):
+        raise ModuleNotFoundError(package)
+
+    monkeypatch.setattr(resources, "files", missing)
+    res = run_phri("init", "--list")
+    assert_one_line_error(res, "phri_spring.presets", "pip install -e .", code=2)

@@ -27,7 +27,13 @@ _PACKAGE = "phri_spring.presets"
 
 
 def _folder():
-    return resources.files(_PACKAGE)
+    try:
+        return resources.files(_PACKAGE)
+    except ModuleNotFoundError:
+        # an editable install made before configs/ was mapped into the package
+        raise UsageError("the bundled presets are not installed; expected the package "
+                         f"{_PACKAGE} (reinstall phri-spring: pip install -e .)",
+                         key="--preset") from None
 
 
 def preset_names() -> list[str]:
