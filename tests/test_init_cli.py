@@ -65,6 +65,13 @@ def test_starter_config_is_the_preset_with_a_header(tmp_path, name):
     a, b = load_config(out), load_config(CONFIGS / f"{name}.yaml")
     np.testing.assert_allclose(a.loadcell_position, b.loadcell_position, rtol=0, atol=0)
     assert a.name == b.name
+    # it runs: simulate on the first 300 samples of the example log (its unloaded 3 s)
+    log = tmp_path / "short.csv"
+    log.write_text("\n".join(EXAMPLE_LOG.read_text().splitlines()[:302]) + "\n")
+    res = run_phri("simulate", out, log, "-o", tmp_path / "forces.csv", "-q")
+    assert res.exit_code == 0, res.output
+    forces = read_numbers(tmp_path / "forces.csv", ["time"])
+    assert forces.shape == (300, 1)
 
 
 @pytest.mark.parametrize("name", PRESETS)
