@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from ._common import info
@@ -64,7 +66,10 @@ def init(file, preset, list_presets, example, force, quiet):
     if file is not None:
         check_starter_path(file, force)
     if example is not None:
-        check_example_folder(example, force)
+        log = check_example_folder(example, force)
+        if file is not None and Path(file).resolve() == log.resolve():
+            raise UsageError(f"FILE {file!r} is where --example writes the example log; "
+                             "expected another name", key="FILE")
     if file is not None:
         written = write_starter_config(file, name, force=force, version=release)
         info(f"wrote {written} (preset {name})", quiet)

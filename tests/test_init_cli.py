@@ -145,6 +145,7 @@ def test_existing_example_log_refuses_the_whole_command(tmp_path):
     (["--preset", "human_thigh"], ["--preset", "FILE"]),
     (["--list", "x.yaml"], ["--list"]),
     (["missing_folder/x.yaml"], ["FILE", "missing_folder"]),
+    (["wrench_log.csv", "--example", "."], ["FILE", "--example", "another name"]),
 ])
 def test_bad_usage_is_one_line_exit_2(tmp_path, monkeypatch, args, needles):
     monkeypatch.chdir(tmp_path)
