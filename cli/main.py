@@ -53,6 +53,7 @@ import click
 from ._common import PhriGroup
 
 _COMMANDS = {
+    "init": ("phri_cli.init", "init"),
     "simulate": ("phri_cli.simulate", "simulate"),
     "fit-stiffness": ("phri_cli.fit_stiffness", "fit_stiffness"),
     "compare": ("phri_cli.compare", "compare"),
@@ -62,6 +63,7 @@ _COMMANDS = {
 }
 
 _SHORT_HELP = {
+    "init": "Write a commented starter config from a bundled preset (and an example log).",
     "simulate": "Wrench log -> contact force of every cuff element [N].",
     "fit-stiffness": "Indenter recordings -> tissue stiffness map [N/m].",
     "compare": "RMSE of the arm models' predictions (rigid, compliant, coupled) against a sensorized cuff.",
@@ -103,6 +105,7 @@ def phri():
 
     \b
     Examples:
+      phri init cuff.yaml --example .
       phri simulate configs/harmony_upper_arm.yaml examples/wrench_log.csv -o forces.csv
       phri fit-stiffness examples/indenter -o stiffness.csv --plots figs/
       phri compare configs/harmony_upper_arm.yaml examples/experiment/manifest.yaml -o cmp/
@@ -118,8 +121,8 @@ def main(argv=None):
 
     Every output file is closed and renamed before the command returns, so the
     process can end with ``os._exit``: tearing down numpy, pyarrow and pydantic
-    costs tens of milliseconds (measured: about 10 % of a short run) and does
-    nothing for the user. Tests call the click group, not this function.
+    takes time and does nothing for the user (what it costs is in
+    benchmarks/STARTUP.md). Tests call the click group, not this function.
     """
     import sys
 

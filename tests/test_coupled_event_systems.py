@@ -21,7 +21,7 @@ from hypothesis import strategies as st
 
 from phri_spring.io.config import load_config
 from phri_spring.physics import friction_events
-from phri_spring.physics.friction_form import RELEASED, SLIDING, STUCK, _solve_state, interface_form
+from phri_spring.physics.friction_form import RELEASED, SLIDING, STUCK, solve_state, interface_form
 from phri_spring.physics.solver import solve
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 
@@ -91,8 +91,8 @@ def test_reduced_state_solve_equals_the_full_one(seed):
     s /= np.linalg.norm(s, axis=1, keepdims=True)
     z = 1e-4 * rng.normal(size=(n, d))
     r = np.concatenate([rng.normal(0, 30, 3), rng.normal(0, 1, 3)])
-    full = _solve_state(form, r, cls, z, s)
-    fast = _solve_state(form, r, cls, z, s, reduce=True)
+    full = solve_state(form, r, cls, z, s)
+    fast = solve_state(form, r, cls, z, s, reduce=True)
     assert (full is None) == (fast is None)
     if full is not None:
         scale = np.abs(full[1]).max()

@@ -53,10 +53,10 @@ def test_full_ring_radial_expansion_matches_lame(nu):
     """
     R, t, delta = 0.04, 0.015, 1e-4
     g = cuff_geometry([0.0], R, 0.02, 0.0, 45.0, 8)            # full circle of patches
-    tm = fe._build_mesh(g, t, 1, 0.5)
-    ib, Kf = fe._assemble(tm, nu, "free")
-    gmap, n_red = fe._periodic_map(tm.comp, t)
-    K = fe._reduce_matrix(Kf, gmap, n_red).tocsr()
+    tm = fe.build_mesh(g, t, 1, 0.5)
+    ib, Kf = fe.assemble(tm, nu, "free")
+    gmap, n_red = fe.periodic_map(tm.comp, t)
+    K = fe.reduce_matrix(Kf, gmap, n_red).tocsr()
     xyz = np.zeros((3, 3 * n_red))
     xyz[:, gmap] = np.repeat(tm.mesh.doflocs, 3, axis=1)
     comp = np.zeros(3 * n_red, int)

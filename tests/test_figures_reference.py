@@ -230,10 +230,10 @@ def test_save_figure_writes_the_pixels_of_savefig(tmp_path, kind):
 
     ours = save_figure(make(), tmp_path / "ours.png", 83)
     theirs = tmp_path / "theirs.png"
-    from phri_spring.reports.figure_base import _style
+    from phri_spring.reports.figure_base import figure_style
 
     fig = make()                     # made outside the style, as ours; saved inside it, as ours
-    with _style():
+    with figure_style():
         fig.savefig(theirs, dpi=83)
     np.testing.assert_array_equal(_png_pixels(ours), _png_pixels(theirs))
 
@@ -250,9 +250,9 @@ def test_save_figure_honours_the_users_savefig_settings(tmp_path, rc):
     with matplotlib.rc_context(rc):
         ours = save_figure(wrench_figure(*wrench_inputs(), title="x"), tmp_path / "w.png", 50)
         fig = wrench_figure(*wrench_inputs(), title="x")
-        from phri_spring.reports.figure_base import _style
+        from phri_spring.reports.figure_base import figure_style
 
-        with _style():
+        with figure_style():
             fig.savefig(tmp_path / "ref.png", dpi=50)
         r = HeatmapRenderer(3, row_labels=("A", "B", "C"), n_angles=7)
         r.fill(m, s, title=t, rmse=e)

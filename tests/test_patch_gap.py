@@ -46,7 +46,7 @@ def _facet_extent(tm, facets):
 
 @pytest.mark.parametrize("gap", [0.001, 0.004])
 def test_the_gap_leaves_a_strip_of_free_skin_of_its_width(gap):
-    tm = fe._build_mesh(TILED, 0.01, 1, 1.0, gap)
+    tm = fe.build_mesh(TILED, 0.01, 1, 1.0, gap)
     ext, verts = zip(*(_facet_extent(tm, f) for f in tm.patch_facets))
     # the cells, by hand: rows [-25, 0] and [0, 25] mm; cells 37.5-72.5, 72.5-107.5 and
     # 107.5-142.5 deg; a shared edge moves back by gap/2 (gap/2R around the arm), an outer
@@ -84,7 +84,7 @@ def test_the_gap_leaves_a_strip_of_free_skin_of_its_width(gap):
 
 def test_tiled_patches_touch_without_a_gap():
     """The check above can fail: with no gap neighbouring patches share mesh vertices."""
-    tm = fe._build_mesh(TILED, 0.01, 1, 1.0, 0.0)
+    tm = fe.build_mesh(TILED, 0.01, 1, 1.0, 0.0)
     verts = [_facet_extent(tm, f)[1] for f in tm.patch_facets]
     assert verts[0] & verts[1] and verts[0] & verts[3]       # A0-A1 and A0-B0 share edges
     assert not verts[0] & verts[5]                           # A0 and B2 do not
@@ -225,8 +225,8 @@ def test_the_command_line_names_the_key(tmp_path):
 @pytest.mark.parametrize("gap", [0.0, 0.002])
 def test_mesh_size_is_that_of_the_built_mesh(gap):
     """fe_mesh.mesh_size (what the memory check can size the FE by) counts the gap's strips."""
-    from phri_spring.physics.fe_mesh import _periodic_map, mesh_size
+    from phri_spring.physics.fe_mesh import periodic_map, mesh_size
 
-    tm = fe._build_mesh(TILED, 0.01, 2, 1.0, gap)
-    _, n_nodes = _periodic_map(tm.comp, 0.01)
+    tm = fe.build_mesh(TILED, 0.01, 2, 1.0, gap)
+    _, n_nodes = periodic_map(tm.comp, 0.01)
     assert mesh_size(TILED, 0.01, 2, 1.0, gap) == (tm.mesh.nelements, 3 * n_nodes)

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import ConfigError, ConvergenceError
 from ..physics import hyper_reduced as hr
-from .surface_stiffness import _gap, cache_key, default_cache_dir, read_cache_entry, write_cache_entry
+from .surface_stiffness import patch_gap_value, cache_key, default_cache_dir, read_cache_entry, write_cache_entry
 
 __all__ = ["IDENTIFY_LEVEL", "IDENTIFY_RAYS", "HELD_OUT_LIMIT_PCT", "REDUCTION_FORMAT_VERSION",
            "reduction_key",
@@ -117,7 +117,7 @@ def load_or_identify(geometry, thickness, young_modulus, poisson_ratio, linear, 
         red.info.update(source="cache", cache_error=None)
     else:
         cuff = fh.build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio,
-                                   level=level, delta=linear.delta, patch_gap=_gap(patch_gap),
+                                   level=level, delta=linear.delta, patch_gap=patch_gap_value(patch_gap),
                                    law=law, ogden_alpha=ogden_alpha)
         try:
             red = hr.identify(cuff, hr.linear_bonded(linear), max_force=max_force,

@@ -19,9 +19,9 @@ none), the cgroup's ``memory.max`` (containers) and, for address space, the
 ``PHRI_SPRING_MEMORY_LIMIT`` (bytes, or with a K, M, G or T suffix, powers of
 1024) replaces the first two, e.g. to test the refusal on a small "machine".
 
-Terms (each constant below says what it was measured as: peak RSS and
-tracemalloc of real runs, pyarrow 26, numpy 2, on the project's VM; each has
-about 20 % of margin):
+Terms (each constant below is what real runs were seen to need, peak RSS and
+tracemalloc, with a margin; the figures behind them are in
+``benchmarks/MEMORY_BUDGET.md``):
 
 ==================  ==========================================================
 ``config``          element labels (text) and stiffness arrays of the config
@@ -72,12 +72,11 @@ __all__ = ["ENV_LIMIT", "MemoryEstimate", "MemoryBudget", "estimate", "available
 
 
 # --------------------------------------------------------------------------- constants
-#: label text + tuple slot, tissue and cuff stiffness (measured 80 B)
+#: label text + tuple slot, tissue and cuff stiffness
 CONFIG_BYTES_PER_ELEMENT = 128
-#: geometry (18 doubles), SpringModel (53 doubles) and the build's temporaries (measured
-#: peak 824 B)
+#: geometry (18 doubles), SpringModel (53 doubles) and the build's temporaries
 MODEL_BYTES_PER_ELEMENT = 1024
-#: array headers and dataclasses of one model (measured 20 KB at 21 elements)
+#: array headers and dataclasses of one model
 MODEL_FIXED_BYTES = 32 << 10
 #: dense (6n x 6n) float64 matrices alive at once while the coupled model is built
 #: (K, its factor, R, C_t, C, their products, the reduced problem; counted 13 to 16)
@@ -91,43 +90,42 @@ COUPLED_CACHED_SETS = 512
 #: rows x 6 x n gathered per block when rows of a coupled chunk have different sets
 COUPLED_GATHER_BYTES_PER_ELEMENT = 2 * 4096 * 6 * 8
 #: built-in FE: scikit-fem's bases and quadrature whatever the mesh, then per hexahedron the
-#: gradients, element matrices, sparse assembly and LU fill-in (fitted on 3 to 42 patches,
-#: 405 to 4,002 hexahedra: about 130 MB + 430-560 KB per hexahedron)
+#: gradients, element matrices, sparse assembly and LU fill-in (a fit over meshes of 3 to
+#: 42 patches)
 FE_FIXED_BYTES = 192 << 20
 FE_BYTES_PER_HEX = 560 << 10
-#: dense (dofs x 6n) blocks of the FE's condensation alive at once (fitted 3.3)
+#: dense (dofs x 6n) blocks of the FE's condensation alive at once (fitted, rounded up)
 FE_DENSE_COPIES = 4
 #: solving a chunk, its extras and the chunks waiting for the writer, per value
-#: (sample x element; measured 40 B)
+#: (sample x element)
 CHUNK_BYTES_PER_VALUE = 48
-#: ``--shear``: tangential forces (m, n, 3) and their temporaries, per value (measured 72-90 B)
+#: ``--shear``: tangential forces (m, n, 3) and their temporaries, per value
 SHEAR_BYTES_PER_VALUE = 96
 #: coupled arm, per value: indicator, output map and set keys beside the spring terms
 COUPLED_BYTES_PER_VALUE = 48
 #: writer, per cell (sample x output column) of the chunks in flight: rounding, transposing
-#: and the text (CSV, measured 60-80 B) or the encoded pages (Parquet, measured 20 B). A
-#: whole 2,100-element CSV run once peaked 1.4 % above the estimate made with 96 B (CI,
-#: tests/faults/test_fault_memory.py): the allocators' slack varies from run to run
+#: and the text (CSV) or the encoded pages (Parquet). The CSV figure was raised once a
+#: whole 2,100-element CSV run peaked above its estimate in CI
+#: (tests/faults/test_fault_memory.py): the allocators' slack varies from run to run
 CSV_BYTES_PER_CELL = 112
 PARQUET_BYTES_PER_CELL = 24
-#: writer, per output column whatever the rows (measured 3.3 KB CSV, 5.8 KB Parquet)
+#: writer, per output column whatever the rows
 CSV_BYTES_PER_COLUMN = 4 << 10
 PARQUET_BYTES_PER_COLUMN = 8 << 10
-#: Parquet footer metadata per column per row group, held until the file closes (1.73 KB)
+#: Parquet footer metadata per column per row group, held until the file closes
 PARQUET_BYTES_PER_COLUMN_CHUNK = 2 << 10
 #: address space pyarrow's CSV encoder reserves per column for each chunk it encodes
 #: (its batch of 16,384 rows x 8 B), for the header and two encoders
 CSV_RESERVED_PER_COLUMN = 3 * (128 << 10)
-#: address space a streamed run maps beyond its data: pyarrow's libraries (184 MB), the
-#: allocators' arenas and the stacks of its threads (measured: 1.44 GB CSV, 1.52 GB
-#: Parquet, from the check to the end of a 21-element run). Under a tighter ``ulimit -v``
-#: pyarrow's CSV encoder ends in std::bad_alloc and an abort (seen at 450-500 MB): refused
+#: address space a streamed run maps beyond its data: pyarrow's libraries, the
+#: allocators' arenas and the stacks of its threads. Under a tighter ``ulimit -v``
+#: pyarrow's CSV encoder ends in std::bad_alloc and an abort: refused
 STREAM_RESERVED = 1600 << 20
 #: pyarrow's CSV writer sizes one buffer as columns x 128 KiB in a 2^34-byte range: a
 #: table of 131,072 columns or more fails ("Negative buffer resize") or worse
 CSV_MAX_COLUMNS = 131_071
-#: ``--plot``: the max-pool (2 x 2,000 groups x 8 B) and the drawn heat map (measured
-#: 52 B per group and element)
+#: ``--plot``: the max-pool (2 x 2,000 groups x 8 B) and the drawn heat map (per group
+#: and element)
 PLOT_BYTES_PER_ELEMENT = 2 * 2000 * (8 + 56)
 #: Monte Carlo: forces of every draw over a block, their percentiles and the sort's copy
 DRAW_BYTES_PER_VALUE = 3 * 8
@@ -135,8 +133,8 @@ DRAW_BYTES_PER_VALUE = 3 * 8
 DRAW_BLOCK_ENTRIES = 1 << 23
 #: one drawn config (a dataclass sharing the base's arrays) and its row of drawn inputs
 DRAW_FIXED_BYTES = 2 << 10
-#: ``phri design``: one design's config mapping, Config and results (measured 8 KB at 21
-#: elements) beside its per-element arrays
+#: ``phri design``: one design's config mapping, Config and results beside its
+#: per-element arrays
 DESIGN_FIXED_BYTES = 12 << 10
 #: a worker process of ``phri design``: interpreter and libraries
 WORKER_RUNTIME_BYTES = 256 << 20

@@ -52,7 +52,7 @@ def default_cache_dir() -> Path:
     return Path("~/.cache/phri-spring").expanduser()
 
 
-def _gap(patch_gap) -> float:
+def patch_gap_value(patch_gap) -> float:
     """The patch gap [m] the FE is built with: ``fe_tissue.DEFAULT_PATCH_GAP`` for None."""
     return fe_tissue.DEFAULT_PATCH_GAP if patch_gap is None else float(patch_gap)
 
@@ -75,7 +75,7 @@ def cache_key(geometry, thickness, poisson_ratio, *, level=fe_tissue.DEFAULT_LEV
         h.update(name.encode())
         h.update(str(arr.shape).encode())
         h.update(arr.tobytes())
-    for value in (thickness, poisson_ratio, length_factor, _gap(patch_gap)):
+    for value in (thickness, poisson_ratio, length_factor, patch_gap_value(patch_gap)):
         h.update(np.float64(value).tobytes())
     h.update(f"level={int(level)};ends={ends}".encode())
     return h.hexdigest()
@@ -162,7 +162,7 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
     fe_tissue.check_material(thickness=thickness, poisson_ratio=poisson_ratio,
                              young_modulus=young_modulus,
                              radius=fe_tissue.single_radius(geometry))
-    gap = _gap(patch_gap)
+    gap = patch_gap_value(patch_gap)
     problem = fe_tissue.patch_gap_problem(geometry, gap)
     if problem is not None:
         raise ConfigError(problem, key="tissue.continuum.patch_gap")

@@ -21,7 +21,7 @@ from functools import cached_property
 import numpy as np
 
 from .coupled import CoupledModel
-from .hyper_reduced import HyperReduction, _low, features, linear_bonded, solve_poses
+from .hyper_reduced import HyperReduction, low_monomials, features, linear_bonded, solve_poses
 from .hyper_symmetry import mirror_group, symmetrized
 from .model import OnGeometry, field_unit
 
@@ -136,4 +136,4 @@ class HyperCoupledModel(OnGeometry):
     def tangent_stiffness(self, u, contact=None) -> np.ndarray:
         """dW/du (6, 6) at the pose u (6,) [N/m, N/rad; N*m/m, N*m/rad] (``contact`` unused)."""
         red = self.reduction
-        return red.jacobian(self.H, _low(np.asarray(u, float).reshape(1, 6) / red.scale))[0]
+        return red.jacobian(self.H, low_monomials(np.asarray(u, float).reshape(1, 6) / red.scale))[0]

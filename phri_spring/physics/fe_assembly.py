@@ -20,8 +20,8 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from .fe_mesh import (DEFAULT_PATCH_GAP, _build_mesh, _periodic_map, _reduce_matrix,
-                      _reduce_rows, _skfem)
+from .fe_mesh import (DEFAULT_PATCH_GAP, build_mesh, periodic_map, reduce_matrix,
+                      reduce_rows, import_skfem)
 from .geometry import rigid_body_map
 
 __all__ = ["TissueFE", "assemble_tissue_fe"]
@@ -32,12 +32,12 @@ def _inward_normal(X):
     return np.stack([np.zeros_like(X[0]), -X[1] / r, -X[2] / r])
 
 
-def _assemble(tm, poisson_ratio, ends, intorder=4, chunk=256):
+def assemble(tm, poisson_ratio, ends, intorder=4, chunk=256):
     """Volume stiffness for E = 1 Pa, vectorised over elements (batched matrix products).
 
     Returns the vector basis and the (N, N) sparse stiffness matrix.
     """
-    sk = _skfem()
+    sk = import_skfem()
     e = sk["ElementVector"](sk["ElementHex2"]())
     ib = sk["Basis"](tm.mesh, e, intorder=intorder)
     lam, mu = sk["lame_parameters"](1.0, float(poisson_ratio))
@@ -80,7 +80,7 @@ def _facet_arrays(tm, ib, facets, intorder=5):
     X : ndarray, shape (3, nf, nq)
     edofs : ndarray, shape (nb, nf)
     """
-    sk = _skfem()
+    sk = import_skfem()
     fb = sk["FacetBasis"](tm.mesh, ib.elem, facets=facets, intorder=intorder)
     phi = np.stack([np.array(fb.basis[i][0]) for i in range(len(fb.basis))])
     return phi, np.asarray(fb.dx), np.array(fb.global_coordinates()), fb.element_dofs
@@ -149,7 +149,7 @@ def _dof_sets(tm, ib, ends, g, n_red):
     return s, fixed, free
 
 
-def _factor(A):
+def factor(A):
     return spla.splu(A.tocsc(), permc_spec="MMD_AT_PLUS_A",
                      options=dict(SymmetricMode=True))
 
@@ -160,7 +160,7 @@ def _solve_imposed(Kr, s, free, Us):
     Ksi = Kr[s][:, free]
     Kis = Kr[free][:, s]
     Kii = Kr[free][:, free]
-    lu = _factor(Kii)
+    lu = factor(Kii)
     Ui = -lu.solve(np.asarray(Kis @ Us))
     return np.asarray(Kss @ Us) + np.asarray(Ksi @ Ui)
 
@@ -252,12 +252,12 @@ def assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor,
     -------
     TissueFE
     """
-    tm = _build_mesh(geometry, thickness, level, length_factor, patch_gap)
-    ib, Kfull = _assemble(tm, poisson_ratio, ends)
+    tm = build_mesh(geometry, thickness, level, length_factor, patch_gap)
+    ib, Kfull = assemble(tm, poisson_ratio, ends)
     M, B, C = _surface_forms(tm, geometry, ib, rigid=patch_modes)
-    g, n_red = _periodic_map(tm.comp, tm.thickness)
+    g, n_red = periodic_map(tm.comp, tm.thickness)
     s, _, free = _dof_sets(tm, ib, ends, g, n_red)
     return TissueFE(mesh=tm, basis=ib, dof_map=g, n_nodes=n_red,
-                    K=_reduce_matrix(Kfull, g, n_red), M=_reduce_matrix(M, g, n_red),
-                    B=None if B is None else np.asarray(_reduce_rows(B, g, n_red)),
-                    C=np.asarray(_reduce_rows(C, g, n_red)), skin=s, free=free)
+                    K=reduce_matrix(Kfull, g, n_red), M=reduce_matrix(M, g, n_red),
+                    B=None if B is None else np.asarray(reduce_rows(B, g, n_red)),
+                    C=np.asarray(reduce_rows(C, g, n_red)), skin=s, free=free)

@@ -49,7 +49,7 @@ import scipy.sparse.linalg as spla
 
 from ..errors import ConvergenceError, ModelInputError
 from .coupled import patch_frames
-from .fe_assembly import _factor, assemble_tissue_fe
+from .fe_assembly import factor, assemble_tissue_fe
 from .fe_mesh import DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, check_material, single_radius
 from .geometry import rigid_body_map
 
@@ -168,7 +168,7 @@ def _skin_schur(K, s, free, block):
     S = K[s][:, s].toarray()
     Kfs = K[free][:, s].tocsc()
     Ksf = K[s][:, free].tocsr()
-    lu = _factor(K[free][:, free])
+    lu = factor(K[free][:, free])
     pr, pc = lu.perm_r, lu.perm_c
     L = lu.L.tocsr()
     U = lu.U.tocsr()

@@ -1,7 +1,7 @@
 """Large-deformation hyperelastic reference FE of the tissue under a rigid, bonded cuff.
 
 The reference for the reduced nonlinear coupled model. The linear FE's mesh
-(:func:`~phri_spring.physics.fe_mesh._mesh_lines`: triquadratic hexahedra between the bone
+(:func:`~phri_spring.physics.fe_mesh.mesh_lines`: triquadratic hexahedra between the bone
 r = R - t and the skin r = R, seam closed) solved with felupe at finite strain:
 
 * material: felupe ``NeoHooke(mu, bulk)``, psi = mu/2 (J^-2/3 tr C - 3) + K/2 (J - 1)^2,

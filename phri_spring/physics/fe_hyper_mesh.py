@@ -1,7 +1,7 @@
 """The large-deformation FE of the tissue under a rigid, bonded cuff: mesh, material, plates.
 
 Builds the felupe model that :mod:`phri_spring.physics.fe_hyper` solves (its docstring
-has the model): the linear FE's mesh (:func:`~phri_spring.physics.fe_mesh._mesh_lines`),
+has the model): the linear FE's mesh (:func:`~phri_spring.physics.fe_mesh.mesh_lines`),
 the material (:data:`LAWS`), the clamped nodes and every patch's plate with its skin
 mass and normal loads for the traction projection. felupe imported lazily.
 """
@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import UsageError
 from .coupled import patch_frames
-from .fe_mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_PATCH_GAP, _mesh_lines, check_material,
+from .fe_mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_PATCH_GAP, mesh_lines, check_material,
                       patch_plates, single_radius)
 
 __all__ = ["HYPER_EXTRA_HINT", "LAWS", "HyperCuff", "build_hyper_cuff"]
@@ -199,7 +199,7 @@ def build_hyper_cuff(geometry, thickness, young_modulus, poisson_ratio, *, level
     gap = float(patch_gap)
     if not gap > 0:
         raise ValueError(f"patch_gap: expected > 0 m (plates sharing nodes), got {patch_gap!r}")
-    ax, ang, rad = _mesh_lines(geometry, thickness, int(level), length_factor, gap)
+    ax, ang, rad = mesh_lines(geometry, thickness, int(level), length_factor, gap)
     xs, ths, rs = _mid(ax.nodes), _mid(ang.nodes)[:-1], _mid(rad)      # theta periodic
     nx, nt, nr = len(xs), len(ths), len(rs)
     I, J, K = np.meshgrid(np.arange(nx), np.arange(nt), np.arange(nr), indexing="ij")

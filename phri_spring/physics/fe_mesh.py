@@ -43,7 +43,7 @@ _EDGE_GRADING = 2.0    # size ratio of neighbouring elements in a patch, toward 
 _RADIAL_GROWTH = 1.5   # size ratio of radial elements, from the skin inward
 
 
-def _skfem():
+def import_skfem():
     """Import scikit-fem lazily; a one-line :class:`UsageError` when the extra is missing."""
     try:
         from skfem import (Basis, BilinearForm, ElementHex2, ElementQuad2, ElementVector,
@@ -262,7 +262,7 @@ def _angular_breakpoints(theta, span, level, gap=0.0):
     return _Intervals(nodes, lo_out, hi_out)
 
 
-def _graded(length, h0, ratio):
+def graded(length, h0, ratio):
     """Node positions (0, length] of elements h0, h0 ratio, h0 ratio^2, ...
 
     The sizes do not depend on ``length`` except for the last element, which ends
@@ -289,8 +289,8 @@ def _axial_breakpoints(x, width, level, extension, ratio=_AXIAL_GROWTH, gap=0.0)
     h_max = _FREE_SIZE * float(np.min(width)) / level
     lo, hi = _open_gaps(lo, hi, float(gap))               # the plates in the rows
     inner, h_first, h_last = _line_nodes(lo, hi, level, h_max, lo[0], hi[-1], True, True)
-    ext_lo = _graded(extension, h_first, ratio)
-    ext_hi = _graded(extension, h_last, ratio)
+    ext_lo = graded(extension, h_first, ratio)
+    ext_hi = graded(extension, h_last, ratio)
     nodes = np.concatenate([inner[0] - ext_lo[::-1], inner, inner[-1] + ext_hi])
     lo_out, hi_out = np.empty(len(x)), np.empty(len(x))
     lo_out[order], hi_out[order] = lo, hi
@@ -439,7 +439,7 @@ def _radial_nodes(R, t, n_r, ratio=1.0):
     return np.concatenate([[R - t], R - t + np.cumsum(sizes)])
 
 
-def _mesh_lines(geometry, thickness, level, length_factor, patch_gap):
+def mesh_lines(geometry, thickness, level, length_factor, patch_gap):
     """The breakpoints of the mesh along the arm, around it and through the thickness."""
     R = single_radius(geometry)
     check_material(thickness=thickness, radius=R)
@@ -463,22 +463,22 @@ def _mesh_lines(geometry, thickness, level, length_factor, patch_gap):
 
 def mesh_size(geometry, thickness, level=DEFAULT_LEVEL, length_factor=DEFAULT_LENGTH_FACTOR,
               patch_gap=DEFAULT_PATCH_GAP) -> tuple:
-    """(hexahedra, dofs) of the mesh :func:`_build_mesh` makes, without building it.
+    """(hexahedra, dofs) of the mesh :func:`build_mesh` makes, without building it.
 
     Triquadratic hexahedra on the tensor grid of the breakpoints; dofs: 3 per node once the
     angular seam is tied. ``patch_gap`` None: :data:`DEFAULT_PATCH_GAP`.
     """
     gap = DEFAULT_PATCH_GAP if patch_gap is None else patch_gap
-    ax, ang, rad = _mesh_lines(geometry, thickness, level, length_factor, gap)
+    ax, ang, rad = mesh_lines(geometry, thickness, level, length_factor, gap)
     a, b, c = len(ax.nodes) - 1, len(ang.nodes) - 1, len(rad) - 1
     return a * b * c, 3 * (2 * a + 1) * (2 * b) * (2 * c + 1)
 
 
-def _build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PATCH_GAP):
-    sk = _skfem()
+def build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PATCH_GAP):
+    sk = import_skfem()
     patch_gap = DEFAULT_PATCH_GAP if patch_gap is None else patch_gap
     R = single_radius(geometry)
-    ax, ang, rad = _mesh_lines(geometry, thickness, level, length_factor, patch_gap)
+    ax, ang, rad = mesh_lines(geometry, thickness, level, length_factor, patch_gap)
     _, _, th_inv = _distinct_angles(geometry)
     _, _, x_inv = _distinct_rows(geometry)
     t, gap = float(thickness), float(patch_gap)
@@ -508,7 +508,7 @@ def _build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PAT
 
 # ------------------------------------------------------------ periodic seam
 
-def _periodic_map(comp, thickness_tol):
+def periodic_map(comp, thickness_tol):
     """Global-dof renumbering that ties the seam theta_hi onto theta_lo.
 
     Returns
@@ -539,12 +539,12 @@ def _periodic_map(comp, thickness_tol):
     return g, int(keep.sum())
 
 
-def _reduce_matrix(A, g, n_red):
+def reduce_matrix(A, g, n_red):
     A = A.tocoo()
     return sp.csr_matrix((A.data, (g[A.row], g[A.col])), shape=(3 * n_red, 3 * n_red))
 
 
-def _reduce_rows(B, g, n_red):
+def reduce_rows(B, g, n_red):
     """P^T B for a dense (N, k) or sparse B: sum the rows of tied dofs."""
     P = sp.csr_matrix((np.ones(len(g)), (g, np.arange(len(g)))), shape=(3 * n_red, len(g)))
     return P @ B

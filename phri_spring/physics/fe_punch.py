@@ -18,7 +18,7 @@ from functools import lru_cache
 import numpy as np
 import scipy.sparse.linalg as spla
 
-from .fe_mesh import _graded, _skfem, check_material
+from .fe_mesh import graded, import_skfem, check_material
 
 __all__ = ["PUNCH_RADIUS", "sneddon_punch_stiffness", "flat_punch_stiffness",
            "modulus_from_indenter"]
@@ -36,16 +36,16 @@ def sneddon_punch_stiffness(young_modulus, poisson_ratio, radius=PUNCH_RADIUS):
 def _punch_stiffness_per_pascal(thickness, poisson_ratio, radius, level):
     """Flat-punch stiffness [N/m] of the layer for E = 1 Pa (the FE of
     :func:`flat_punch_stiffness`)."""
-    sk = _skfem()
+    sk = import_skfem()
     a, t = radius, thickness
     # element sizes: h0 at the punch edge, growing geometrically away from it
     h0 = a / (100.0 * level ** 2)
     q = 1.25 ** (1.0 / level)
-    inner = a - _graded(a, h0, q)[::-1]
+    inner = a - graded(a, h0, q)[::-1]
     inner = np.concatenate([[0.0], inner[1:], [a]]) if inner[0] > 0 else inner
-    outer = a + _graded(10.0 * max(t, a), h0, q)
+    outer = a + graded(10.0 * max(t, a), h0, q)
     rn = np.unique(np.concatenate([[0.0], inner, [a], outer]))
-    zn = np.unique(np.concatenate([[0.0], -_graded(t, h0, q)]))
+    zn = np.unique(np.concatenate([[0.0], -graded(t, h0, q)]))
     zn[0] = -t
     m = sk["MeshQuad"].init_tensor(rn, zn)
     e = sk["ElementVector"](sk["ElementQuad2"]())

@@ -39,7 +39,7 @@ from scipy.interpolate import CubicSpline
 from scipy.optimize import brentq, least_squares
 
 from ..errors import ConvergenceError
-from .fe_mesh import _graded, _skfem, check_material
+from .fe_mesh import graded, import_skfem, check_material
 from .indentation_exponential import law_force
 
 __all__ = ["ogden_stress", "punch_curve", "slope_at_contact", "fit_stiffening",
@@ -131,11 +131,11 @@ def _operators(a, h, h0, bonded):
     the Q quadrature points from the dofs, component-major; ``w`` (Q): 2 pi r times the
     quadrature weight [m^2]; the punch's axial dofs and the free dofs.
     """
-    sk = _skfem()
-    inner = a - _graded(a, h0, 1.25)[::-1]
+    sk = import_skfem()
+    inner = a - graded(a, h0, 1.25)[::-1]
     rn = np.unique(np.concatenate([[0.0], inner[inner > 0], [a],
-                                   a + _graded(10.0 * max(h, a), h0, 1.25)]))
-    zn = np.unique(np.concatenate([[0.0], -_graded(h, h0, 1.25)]))
+                                   a + graded(10.0 * max(h, a), h0, 1.25)]))
+    zn = np.unique(np.concatenate([[0.0], -graded(h, h0, 1.25)]))
     zn[0] = -h
     ib = sk["Basis"](sk["MeshQuad"].init_tensor(rn, zn),
                      sk["ElementVector"](sk["ElementQuad2"]()), intorder=4)
@@ -415,7 +415,7 @@ def punch_stiffening(alpha, radius, thickness, young_modulus, poisson_ratio, for
     33.45; alpha = 6: 66.15 / 66.00 / 66.53; alpha = 10: 115.256 / 115.256 / 115.251;
     alpha = 15: 170.83 / 170.83 / 170.83; alpha = 30: 341.73 / 341.73 / 341.76 (alpha = 3:
     9.03 / 9.11 / 9.16). The default, 20 steps per 10 mm, is within 0.25 % of 50 steps for
-    alpha >= 4, in about half the time (human preset, alpha = 10: 2.5 s against 5.4 s).
+    alpha >= 4, with fewer Newton solves (the time is in benchmarks/STIFFENING.md).
 
     Accuracy. At the sharp edge of the bonded punch the corner elements are crushed (J
     down to 0.1) and, beyond a few mm, the discrete layer has unstable equilibria there;

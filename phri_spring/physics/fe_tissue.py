@@ -40,9 +40,9 @@ from dataclasses import dataclass
 import numpy as np
 
 # re-exported: tests, benchmarks and phri_spring.workflows reach these names here
-from .fe_assembly import _assemble, assemble_tissue_fe  # noqa: F401
+from .fe_assembly import assemble, assemble_tissue_fe  # noqa: F401
 from .fe_mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, DEFAULT_PATCH_GAP,  # noqa: F401
-                      FE_EXTRA_HINT, _build_mesh, _periodic_map, _reduce_matrix, _skfem,
+                      FE_EXTRA_HINT, build_mesh, periodic_map, reduce_matrix, import_skfem,
                       check_material, patch_gap_problem, patch_plates, single_radius)
 from .fe_punch import (PUNCH_RADIUS, flat_punch_stiffness, modulus_from_indenter,  # noqa: F401
                        sneddon_punch_stiffness)

@@ -50,7 +50,7 @@ from .friction_events import solve_event_coupled, solve_event_elements
 from .friction_normal import block_nonlinear, frictionless_unheld
 # the shared pieces, importable from here too
 from .friction_form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
-                            PathState, _relative, _scales, initial_state, interface_form)
+                            PathState, relative, scales, initial_state, interface_form)
 
 __all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "solve_path",
            "RELEASED", "STUCK", "SLIDING"]
@@ -175,7 +175,7 @@ def _stuck_transition(form, cache, state, r, f_tol, x_tol):
     z = state.z.copy()
     was_off = cls == RELEASED
     if was_off.any():
-        land = _relative(form, state.u, state.P).reshape(n, d)
+        land = relative(form, state.u, state.P).reshape(n, d)
         z[was_off, 1:] = land[was_off, 1:]
     for hop in range(1, _HOPS + 1):
         maps = _stuck_maps(form, cache, cls)
@@ -234,7 +234,7 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     cls = np.zeros((m, n), dtype=np.int8)
     solves = np.zeros(m, dtype=np.int64)
     conv = np.ones(m, dtype=bool)
-    fs, xs = _scales(form, np.zeros(6))
+    fs, xs = scales(form, np.zeros(6))
     scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + 1e-300
     f_tol = STATE_RTOL * scale
     x_tol = f_tol * (xs / fs)

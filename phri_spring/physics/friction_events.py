@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from .friction_form import (PathState, RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,
-                            _relative, _scales, _solve_state, lu_solve_or_none)
+                            relative, scales, solve_state, lu_solve_or_none)
 
 __all__ = ["solve_event_elements", "solve_event_coupled"]
 
@@ -180,12 +180,12 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
     rho, rho_n, rho_t = ar.rho, ar.rho_n, ar.rho_t
     dRel, J0, TT = ar.dRel, ar.J0, ar.TT
     z0 = state.z.copy()
-    rel_prev = _relative(form, state.u, state.P).reshape(n, d)
+    rel_prev = relative(form, state.u, state.P).reshape(n, d)
     back = state.cls == RELEASED
     z0[back, 1:] = rel_prev[back, 1:]
     z0[:, 0] = 0.0
     zf = z0.ravel()
-    force_scale, _ = _scales(form, r)
+    force_scale, _ = scales(form, r)
     tol = 1e-12 * force_scale
     minus_rho = -rho
 
@@ -351,7 +351,7 @@ def _finish(form, r, state, cls, z0, s_dir, its, close, x=None):
     s[sl] = s_dir[sl]
     n, d, mu = form.n, form.d, form.mu
     if x is None:
-        sol = _solve_state(form, r, cls, z0, s, reduce=_REDUCE)
+        sol = solve_state(form, r, cls, z0, s, reduce=_REDUCE)
         if sol is None:
             return state.u, state.P, state, max(its, 1), False
         u, P = sol
@@ -359,8 +359,8 @@ def _finish(form, r, state, cls, z0, s_dir, its, close, x=None):
         u, P = x[n * d:].copy(), x[:n * d].copy()
         P.reshape(n, d)[cls == RELEASED] = 0.0    # exactly, as the state's solve leaves them
     Pe = P.reshape(n, d)
-    rel = _relative(form, u, P).reshape(n, d) - z0
-    f_tol, x_tol = (STATE_RTOL * v for v in _scales(form, r))
+    rel = relative(form, u, P).reshape(n, d) - z0
+    f_tol, x_tol = (STATE_RTOL * v for v in scales(form, r))
     press = cls != RELEASED
     tn = np.sqrt(Pe[:, 1] ** 2 + Pe[:, 2] ** 2)
     ok = (np.all(Pe[press, 0] >= -f_tol) and np.all(tn[press] <= mu * Pe[press, 0] + f_tol)

@@ -172,7 +172,7 @@ def initial_state(form: InterfaceForm) -> PathState:
 
 
 # --------------------------------------------------------------------------- one state
-def _solve_state(form: InterfaceForm, r, cls, z, s, reduce: bool = False):
+def solve_state(form: InterfaceForm, r, cls, z, s, reduce: bool = False):
     """(u, P) of one wrench r (6,) in a fixed state; None if the state holds no cuff.
     ``reduce``: solve without the released patches' rows and columns (their rows say
     P_e = 0, so their columns multiply zeros): a smaller LU, the same answer."""
@@ -229,12 +229,12 @@ def lu_solve_or_none(A, b):
     return x if info == 0 and np.all(np.isfinite(x)) else None
 
 
-def _relative(form: InterfaceForm, u, P):
+def relative(form: InterfaceForm, u, P):
     """Cuff-side minus skin-side motion of every dof not carried by the cuff spring,
     (T u + delta - C P) (n d,): the tie's offset a patch would need to carry P."""
     return form.T @ u + form.delta - form.C @ P
 
 
-def _scales(form: InterfaceForm, r):
+def scales(form: InterfaceForm, r):
     force = np.abs(r).max() + np.abs(form.W_pre).max() + 1e-300
     return force, force * np.abs(np.diag(form.C)).max()

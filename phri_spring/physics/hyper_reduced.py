@@ -80,7 +80,7 @@ _DMAPS = _derivative_maps()
 NEWTON_ITERATIONS = 30
 
 
-def _low(x: np.ndarray) -> np.ndarray:
+def low_monomials(x: np.ndarray) -> np.ndarray:
     return np.concatenate([np.ones((len(x), 1)), x, x[:, _PAIRS[:, 0]] * x[:, _PAIRS[:, 1]]],
                           axis=1)
 
@@ -92,7 +92,7 @@ def _cubic(low: np.ndarray, x: np.ndarray) -> np.ndarray:
 def features(x, derivative: bool = False):
     """Monomials of the scaled poses x (m, 6): Phi (m, K) [and dPhi/dx (m, K, 6)]."""
     x = np.atleast_2d(np.asarray(x, float))
-    low = _low(x)
+    low = low_monomials(x)
     phi = _cubic(low, x)
     if not derivative:
         return phi
@@ -142,13 +142,13 @@ class HyperReduction:
         return np.einsum("lik,kj->ijl", _DMAPS, self.wrench).reshape(_LOW, 36)
 
     def jacobian(self, H, low) -> np.ndarray:
-        """d(H u + dR(u / s))/du (m, 6, 6) at the poses whose low monomials (:func:`_low`
+        """d(H u + dR(u / s))/du (m, 6, 6) at the poses whose low monomials (:func:`low_monomials`
         of x = u / s) are ``low`` (m, _LOW): the reduced model's tangent stiffness."""
         return H + (low @ self.jacobian_map).reshape(-1, 6, 6) / self.scale
 
     def start_map(self, H) -> np.ndarray:
         """J0^-T (6, 6), J0 the tangent at u = 0: :meth:`start` with it precomputed."""
-        return np.linalg.inv(self.jacobian(np.asarray(H, float), _low(np.zeros((1, 6))))[0]).T
+        return np.linalg.inv(self.jacobian(np.asarray(H, float), low_monomials(np.zeros((1, 6))))[0]).T
 
     def start(self, H, W, start_map=None) -> np.ndarray:
         """Newton's starting poses (m, 6) for wrenches W (m, 6): the reduced model's
@@ -351,7 +351,7 @@ def solve_poses(red: HyperReduction, H, W, u0, *, tol: float = 1e-9,
         for _ in range(int(max_iterations) + 1):
             ur = u[rows]
             x = ur * inv_s
-            low = _low(x)
+            low = low_monomials(x)
             phi = _cubic(low, x)
             g = ur @ HT + phi @ red.wrench - W[rows]
             size = np.sqrt(np.einsum("mi,mi->m", g * wscale, g * wscale))
@@ -392,7 +392,7 @@ def _solve_one(red, H, w, u, tol, max_iterations, arm):
     with np.errstate(over="ignore", invalid="ignore"):
         for _ in range(max_iterations + 1):
             x = (u * inv_s)[None]
-            low = _low(x)
+            low = low_monomials(x)
             phi = _cubic(low, x)
             g = H @ u + phi[0] @ C - w
             size = float(np.sqrt(((g * wscale) ** 2).sum()))

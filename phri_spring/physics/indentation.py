@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .indentation_signal import (ONSET_FLOOR, ONSET_SIGMAS, REST_TREND_SIGMAS,
-                                 REVERSAL_FLOOR, REVERSAL_FRACTION, TrialError, _as_1d,
+                                 REVERSAL_FLOOR, REVERSAL_FRACTION, TrialError, as_1d,
                                  check_at_rest, default_onset_threshold, detect_onset,
                                  split_strokes, turning_points, window_trend, zero_level)
 
@@ -371,9 +371,9 @@ def fit_trial(time, displacement, force, *, zero_window: float = 3.0,
         window, indentation starting inside the zero window, no indentation, or
         no unloading stroke in contact.
     """
-    t = _as_1d(time, "time")
-    x = _as_1d(displacement, "displacement")
-    f_raw = _as_1d(force, "force")
+    t = as_1d(time, "time")
+    x = as_1d(displacement, "displacement")
+    f_raw = as_1d(force, "force")
     if not (t.size == x.size == f_raw.size):
         raise TrialError(f"time, displacement and force differ in length "
                          f"({t.size}, {x.size}, {f_raw.size})")

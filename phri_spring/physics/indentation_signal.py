@@ -48,7 +48,7 @@ class TrialError(ValueError):
         super().__init__(message)
 
 
-def _as_1d(values, name: str) -> np.ndarray:
+def as_1d(values, name: str) -> np.ndarray:
     a = np.asarray(values, dtype=float)
     if a.ndim != 1:
         raise TrialError(f"expected a one-dimensional array, got shape {a.shape}", key=name)

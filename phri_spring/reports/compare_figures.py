@@ -24,7 +24,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from .compare_heatmap import HeatmapRenderer, heatmap_figure
-from .figure_base import (ARM_COLORS, ARM_NAMES, DEFAULT_DPI, _ReusedFigure, _style,
+from .figure_base import (ARM_COLORS, ARM_NAMES, DEFAULT_DPI, ReusedFigure, figure_style,
                           fast_png, write_png)
 
 __all__ = ["ARM_COLORS", "ARM_NAMES", "rmse_bars_figure", "heatmap_figure", "wrench_figure",
@@ -70,7 +70,7 @@ def rmse_bars_figure(summary, rmse=None, *, arms: Sequence[str] = ("rigid", "com
     ncols = ncols or (1 if n == 1 else 2)
     nrows = int(np.ceil(n / ncols))
     arms = [a for a in arms if a in set(summary["arm"])]
-    with _style():
+    with figure_style():
         fig = Figure(figsize=(3.7 * ncols, 2.9 * nrows + 0.35), layout="constrained")
         axes = fig.subplots(nrows, ncols, squeeze=False)
         for ax in axes.ravel()[n:]:
@@ -153,7 +153,7 @@ def wrench_figure(time, wrench, conditions, *, title: str = "",
     return WrenchRenderer(force_unit, moment_unit).fill(time, wrench, conditions, title=title)
 
 
-class WrenchRenderer(_ReusedFigure):
+class WrenchRenderer(ReusedFigure):
     """Many wrench traces (Fig. 8a) drawn into one figure built once.
 
     :meth:`fill` changes the lines' data, the shaded windows and their names
@@ -165,7 +165,7 @@ class WrenchRenderer(_ReusedFigure):
     _COLORS = ("#d62728", "#2ca02c", "#1f77b4")
 
     def __init__(self, force_unit: str = "N", moment_unit: str = "N*m"):
-        with _style():
+        with figure_style():
             fig = Figure(figsize=(7.0, 3.9), layout="constrained")
             ax_f, ax_m = fig.subplots(2, 1, sharex=True)
             self.lines = []
@@ -203,7 +203,7 @@ class WrenchRenderer(_ReusedFigure):
         for mark in self._marks:
             mark.remove()
         self._marks = []
-        with _style():
+        with figure_style():
             for j, line in enumerate(self.lines):
                 line.set_data(t, w[:, j])
             # shade each steady window and name it
@@ -235,7 +235,7 @@ def save_figure(fig: Figure, path, dpi: int = DEFAULT_DPI) -> Path:
     the pixels ``Figure.savefig`` writes, without its extra layout pass.
     """
     path = Path(path)
-    with _style():
+    with figure_style():
         if not fast_png(path):
             fig.savefig(path, dpi=dpi)
             return path
@@ -271,7 +271,7 @@ def _heatmap_renderer(n_panels: int, row_labels, n_angles: int) -> "HeatmapRende
     return r
 
 
-def _renderer_for(job) -> "_ReusedFigure":
+def _renderer_for(job) -> "ReusedFigure":
     """This process's renderer for a heat-map or wrench job (built on first use)."""
     kind, _, kw = job
     if kind == "heatmap":

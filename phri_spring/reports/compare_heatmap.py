@@ -17,7 +17,7 @@ from matplotlib.figure import Figure
 from matplotlib.text import Text
 
 from .agg_text import remember
-from .figure_base import ARM_NAMES, _ReusedFigure, _style, fast_png, write_png
+from .figure_base import ARM_NAMES, ReusedFigure, figure_style, fast_png, write_png
 
 __all__ = ["heatmap_figure", "HeatmapRenderer"]
 
@@ -86,7 +86,7 @@ class _CellText(Text):
         return remember(self._layouts, key, super()._get_layout(renderer), limit=20_000)
 
 
-class HeatmapRenderer(_ReusedFigure):
+class HeatmapRenderer(ReusedFigure):
     """Many heat maps (Fig. 8b) of one layout, drawn into one figure built once.
 
     Building a figure (axes, ticks, the colour bar, one text per cell) costs
@@ -119,7 +119,7 @@ class HeatmapRenderer(_ReusedFigure):
         self.value_format = value_format
         self._static = {}        # layout key -> the pixels of the parts that never change
         n_rows = len(self.row_labels)
-        with _style():
+        with figure_style():
             cell = 0.42
             fig = Figure(figsize=(max(self.n_panels * (n_angles * cell + 0.55) + 1.1, 5.5),
                                   n_rows * cell + 1.75), layout="constrained")
@@ -183,7 +183,7 @@ class HeatmapRenderer(_ReusedFigure):
         finite = np.concatenate([g[np.isfinite(g)] for g in grids])
         vmax = float(np.max(np.abs(finite))) if finite.size else 0.0
         vmax = vmax if vmax > 0 else 1.0
-        with _style():
+        with figure_style():
             for ax, im, texts, (name, _), grid in zip(self.axes, self.meshes, self.texts,
                                                       panels, grids):
                 im.set_array(grid)

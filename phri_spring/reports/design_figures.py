@@ -13,7 +13,7 @@ from typing import Optional, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .compare_figures import _style
+from .figure_base import figure_style
 
 __all__ = ["pareto_figure", "objectives_vs_parameters_figure", "peak_pressure_heatmap_figure"]
 
@@ -55,7 +55,7 @@ def pareto_figure(table, objectives: Sequence[str], senses: Sequence[int] = (),
         x = table["design"].to_numpy(float)
         y = table[objectives[0]].to_numpy(float)
         xl, yl = "design", objectives[0] + (" (maximised)" if senses[0] < 0 else "")
-    with _style():
+    with figure_style():
         fig = Figure(figsize=(5.6, 4.2), layout="constrained")
         ax = fig.subplots()
         ax.scatter(x[~feas], y[~feas], marker="x", s=14, color=_INFEASIBLE, lw=0.8,
@@ -88,7 +88,7 @@ def objectives_vs_parameters_figure(table, parameters: Sequence[str],
     nr, nc = len(objectives), len(parameters)
     feas = table["feasible"].to_numpy(bool)
     par = table["pareto"].to_numpy(bool)
-    with _style():
+    with figure_style():
         fig = Figure(figsize=(min(2.6 * nc + 0.8, 16), min(2.1 * nr + 0.6, 14)),
                      layout="constrained")
         axes = fig.subplots(nr, nc, squeeze=False)
@@ -139,7 +139,7 @@ def peak_pressure_heatmap_figure(peak_kpa, *, row_labels: Sequence[str], n_angle
     grid = v.reshape(n_rows, n_angles)
     vmax = max(float(pain_threshold_kpa), float(np.nanmax(grid)) if np.isfinite(grid).any()
                else 1.0)
-    with _style():
+    with figure_style():
         cell = 0.5
         fig = Figure(figsize=(max(n_angles * cell + 2.2, 4.8), n_rows * cell + 1.6),
                      layout="constrained")

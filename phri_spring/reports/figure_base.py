@@ -1,9 +1,9 @@
 """Shared pieces of the report figures: style, arm colours, the reused-figure renderer base.
 
-The font sizes every report figure is drawn with (:func:`_style`), the colours and
+The font sizes every report figure is drawn with (:func:`figure_style`), the colours and
 names of the arm models, the resolution of saved figures, the base class of the
 renderers that draw many figures of one layout into one figure built once
-(:class:`_ReusedFigure`, used by :mod:`phri_spring.reports.compare_heatmap` and
+(:class:`ReusedFigure`, used by :mod:`phri_spring.reports.compare_heatmap` and
 :mod:`phri_spring.reports.compare_figures`) and a fast PNG writer
 (:func:`write_png`). Split out of :mod:`phri_spring.reports.compare_figures`,
 which re-exports every public name. Only :class:`matplotlib.figure.Figure` is
@@ -30,17 +30,14 @@ _FONT = {"font.size": 9, "axes.titlesize": 10, "axes.labelsize": 9, "xtick.label
          "ytick.labelsize": 8.5, "legend.fontsize": 8.5}
 
 
-def _style():
+def figure_style():
+    """The project's figure fonts, as a context manager."""
     import matplotlib
 
     return matplotlib.rc_context(_FONT)
 
 
-#: the project's figure fonts, as a context manager (public name of ``_style``)
-figure_style = _style
-
-
-class _ReusedFigure:
+class ReusedFigure:
     """A figure built once and drawn many times with other values (base of the renderers).
 
     Subclasses build ``self.fig`` (with a constrained layout) and
@@ -166,7 +163,7 @@ class _ReusedFigure:
             from .agg_text import CachedTextCanvas
 
             self._canvas = CachedTextCanvas(fig)
-        with _style():
+        with figure_style():
             fig.dpi = dpi
             key = (self._layout(dpi), dpi)
             # no layout engine at all: the figure is then drawn once (with one, even a

@@ -119,6 +119,6 @@ def _unrolled_panel(fig, layout, forces, labels) -> None:
 
 
 def _style():
-    from .compare_figures import _style as style
+    from .figure_base import figure_style as style
 
     return style()

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
-from .figure_base import ARM_COLORS, ARM_NAMES, _style
+from .figure_base import ARM_COLORS, ARM_NAMES, figure_style
 
 __all__ = ["stiffness_curves_figure"]
 
@@ -76,7 +76,7 @@ def stiffness_curves_figure(curves, *, title: str | None = None) -> Figure:
     if not sets:
         raise ValueError("curves: expected at least one set of curves")
     first = sets[0]
-    with _style():
+    with figure_style():
         fig = Figure(figsize=(10.0, 6.4), layout="constrained")
         axs = fig.subplots(2, 3)
         handles = {}

@@ -11,7 +11,7 @@ from typing import Optional, Sequence
 import numpy as np
 from matplotlib.figure import Figure
 
-from .compare_figures import ARM_COLORS, ARM_NAMES, _style
+from .figure_base import ARM_COLORS, ARM_NAMES, figure_style
 
 __all__ = ["bands_figure"]
 
@@ -43,7 +43,7 @@ def bands_figure(measured, bands: dict, *, conditions: Sequence[str], labels: Se
     keep = [i for i in range(len(conditions)) if i != baseline_index]
     n = len(labels)
     x = np.arange(n)
-    with _style():
+    with figure_style():
         fig = Figure(figsize=(max(6.0, 0.32 * n + 1.5), 1.9 * max(len(keep), 1) + 0.8),
                      layout="constrained")
         axes = fig.subplots(max(len(keep), 1), 1, squeeze=False)[:, 0]

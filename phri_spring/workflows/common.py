@@ -191,8 +191,9 @@ def _fe_module(cfg: Config):
     """:mod:`phri_spring.physics.fe_tissue`, after checking that scikit-fem (the ``fe`` extra)
     is installed (a one-line UsageError naming the extra otherwise)."""
     from ..physics import fe_tissue
+    from ..physics.fe_mesh import import_skfem
 
-    fe_tissue._skfem()
+    import_skfem()
     return fe_tissue
 
 
