@@ -1,0 +1,105 @@
+"""The forces table's dose columns and the per-element exposure table (docs/tolerance.md).
+
+With a tolerance curve (``tolerance.curve`` in the config or ``--tolerance NAME``), a
+streamed run adds two columns after the standard ones: ``dose_max`` [-], the largest
+cumulative dose over the elements up to each sample, and ``dose_element``, its element.
+Every element's totals (time above the pain threshold and above the curve's floor [s],
+its dose, when the dose reached 1 and when the pain threshold was first passed [s]) go
+into the summary and into a small CSV beside the output (:func:`exposure_table_path`).
+Without a curve nothing is added: the table is the paper model's.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ..io.atomic import atomic_file
+from ..physics.tolerance import Exposure
+
+__all__ = ["TOLERANCE_COLUMN_TYPES", "TOLERANCE_COLUMNS", "ExposureTally",
+           "exposure_table_path", "write_exposure_table", "exposure_text",
+           "EXPOSURE_TABLE_COLUMNS"]
+
+#: the columns and their types (as EXTRA_COLUMN_TYPES of :mod:`.simulate`)
+TOLERANCE_COLUMN_TYPES = (("dose_max", "float64"), ("dose_element", "label"))
+TOLERANCE_COLUMNS = tuple(name for name, _ in TOLERANCE_COLUMN_TYPES)
+#: the per-element exposure table's columns (times in s, dose unitless)
+EXPOSURE_TABLE_COLUMNS = ("element", "time_above_pain_threshold_s", "time_above_curve_floor_s",
+                          "dose", "dose_reached_s", "first_above_pain_threshold_s")
+
+
+class ExposureTally:
+    """An :class:`~phri_spring.physics.tolerance.Exposure` of a model's elements, fed the
+    absolute forces of each chunk in log order (on the solving thread)."""
+
+    def __init__(self, model, curve):
+        self.labels = tuple(model.labels)
+        self.inv_area_kpa = np.asarray(model.inv_area_kpa, dtype=float)
+        self.exposure = Exposure(curve, len(self.labels), model.pain_threshold_kpa)
+
+    @property
+    def curve(self):
+        return self.exposure.curve
+
+    def add(self, time, absolute_forces) -> dict:
+        """The dose columns of the next chunk: times (m,) [s], absolute forces (m, n) [N]."""
+        pressure = np.asarray(absolute_forces, dtype=float) * self.inv_area_kpa   # kPa
+        dose, idx = self.exposure.add(time, pressure)
+        return {"dose_max": dose, "dose_element": (idx, self.labels)}
+
+
+def exposure_table_path(output) -> Path:
+    """Where the per-element table of a run writing ``output`` goes: beside it, its stem
+    + ``_exposure.csv``."""
+    out = Path(output)
+    return out.with_name(out.stem + "_exposure.csv")
+
+
+def write_exposure_table(path, labels, exposure: Exposure) -> Path:
+    """Write every element's totals (:data:`EXPOSURE_TABLE_COLUMNS`) as CSV, atomically;
+    times that never happened are empty."""
+    def fmt(x):
+        return "" if not math.isfinite(x) else ("inf" if x == math.inf else f"{x:.6g}")
+
+    rows = [",".join(EXPOSURE_TABLE_COLUMNS)]
+    for j, lab in enumerate(labels):
+        d = float(exposure.dose[j])
+        rows.append(",".join([str(lab), fmt(float(exposure.time_above_pain_s[j])),
+                              fmt(float(exposure.time_above_floor_s[j])),
+                              "inf" if d == math.inf else fmt(d),
+                              fmt(float(exposure.dose_reached_s[j])),
+                              fmt(float(exposure.pain_first_s[j]))]))
+    path = Path(path)
+    with atomic_file(path) as tmp:
+        Path(tmp).write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def exposure_text(labels, exposure: Optional[Exposure]) -> str:
+    """The summary clause of a run with a tolerance curve: the largest dose and where, where
+    and when the curve's limit was first reached, and the time above the pain threshold."""
+    if exposure is None:
+        return ""
+    curve = exposure.curve
+    j, dose = exposure.worst()
+    text = f"dose ({curve.name}) max {dose:.3g} at {labels[j]}"
+    reached = exposure.dose_reached_s
+    if np.isfinite(reached).any():
+        k = int(np.nanargmin(reached))
+        text += f", limit reached first at {labels[k]}, t = {reached[k]:g} s"
+    else:
+        text += ", limit not reached"
+    above = exposure.time_above_pain_s
+    k = int(np.argmax(above))
+    first = exposure.pain_first_s
+    if np.isfinite(first).any():
+        f = int(np.nanargmin(first))
+        text += (f"; above the pain threshold ({exposure.pain_threshold_kpa:g} kPa) first at "
+                 f"{labels[f]}, t = {first[f]:g} s, longest {above[k]:.4g} s at {labels[k]}")
+    else:
+        text += f"; never above the pain threshold ({exposure.pain_threshold_kpa:g} kPa)"
+    return text
