@@ -297,3 +297,34 @@ def test_bad_tolerance_options_are_one_line(tmp_path):
                  tmp_path / "o.csv", "--tolerance", "linder_ganz_2006")
     assert_one_line_error(r, "o_exposure.csv", code=2)
     assert not (tmp_path / "o.csv").exists()
+
+
+# --------------------------------------------------------------------------- compare
+def test_compare_exposure_matches_plain_loops(tmp_path):
+    from phri_spring.workflows.common import model_from_config
+    from phri_spring.workflows.compare import compare, write_compare
+
+    repo = Path(__file__).resolve().parents[1]
+    res = compare(HARMONY_CONFIG, repo / "examples" / "experiment" / "manifest.yaml",
+                  arms="rigid", tolerance="cuff_knee_discomfort_2020")
+    c = TOLERANCE_CURVES["cuff_knee_discomfort_2020"]
+    inv_area = np.asarray(model_from_config(res.config, "rigid").inv_area_kpa)
+    tc = res.trials[0]
+    d = tc.data
+    P = np.full((len(d.time), len(LABELS)), np.nan)
+    for k, cond in enumerate(d.condition_series):
+        if cond in tc.conditions:
+            P[k] = tc.simulated_abs["rigid"][tc.conditions.index(cond)] * inv_area
+    _, ap, af, _, _ = ref_exposure(c.times_s, c.limits_kpa, d.time, P, 120.0)
+    rows = res.exposure[(res.exposure["trial"] == tc.spec.trial)
+                        & (res.exposure["experiment"] == tc.spec.experiment)
+                        & (res.exposure["direction"] == tc.spec.direction)]
+    np.testing.assert_allclose(rows["time_above_curve_floor_s"], af)
+    np.testing.assert_allclose(rows["time_above_pain_threshold_s"], ap)
+    assert af.max() > 0            # some element is predicted above 13.7 kPa
+    out = write_compare(res, tmp_path / "cmp", figures=False)
+    assert (tmp_path / "cmp" / "exposure.csv") in out.files
+    assert "cuff_knee_discomfort_2020" in (tmp_path / "cmp" / "report.md").read_text()
+    plain = compare(HARMONY_CONFIG, repo / "examples" / "experiment" / "manifest.yaml",
+                    arms="rigid")
+    assert plain.exposure is None

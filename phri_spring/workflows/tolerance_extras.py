@@ -103,3 +103,57 @@ def exposure_text(labels, exposure: Optional[Exposure]) -> str:
     else:
         text += f"; never above the pain threshold ({exposure.pain_threshold_kpa:g} kPa)"
     return text
+
+
+# --------------------------------------------------------------------------- compare
+#: columns of a comparison's exposure.csv
+COMPARE_EXPOSURE_COLUMNS = ("experiment", "direction", "trial", "arm", "element",
+                            "time_above_pain_threshold_s", "time_above_curve_floor_s", "dose",
+                            "dose_reached_s")
+
+
+def compare_exposure(trials, models: dict, curve):
+    """Every element's exposure predicted by each arm over each trial of a comparison: the
+    condition's predicted absolute pressure held over every row of its window, nothing
+    between windows (so a dose is a lower bound there). A DataFrame of
+    :data:`COMPARE_EXPOSURE_COLUMNS`."""
+    import pandas as pd
+
+    rows = []
+    for tc in trials:
+        d, s = tc.data, tc.spec
+        index = {c: j for j, c in enumerate(tc.conditions)}
+        idx = np.array([index.get(str(c), -1) for c in d.condition_series], dtype=np.intp)
+        outside = idx < 0
+        for arm, model in models.items():
+            pressure = tc.simulated_abs[arm][np.maximum(idx, 0)] * model.inv_area_kpa
+            pressure[outside] = np.nan
+            ex = Exposure(curve, len(model.labels), model.pain_threshold_kpa)
+            ex.add(d.time, pressure)
+            for j, lab in enumerate(model.labels):
+                rows.append((s.experiment, s.direction, s.trial, arm, lab,
+                             ex.time_above_pain_s[j], ex.time_above_floor_s[j], ex.dose[j],
+                             ex.dose_reached_s[j]))
+    return pd.DataFrame(rows, columns=list(COMPARE_EXPOSURE_COLUMNS))
+
+
+def compare_exposure_markdown(table, curve) -> str:
+    """The comparison report's lines on the predicted exposure (per arm: the largest dose,
+    where and in which trial, and the longest time above the pain threshold)."""
+    lines = ["", "## Exposure against a tolerance curve", "",
+             f"Curve `{curve.name}` ({curve.kind}, {curve.site}; docs/tolerance.md), applied to "
+             "each arm's predicted pressures held over every condition's window "
+             "(`exposure.csv`):", ""]
+    for arm, part in table.groupby("arm", sort=False):
+        k = int(np.argmax(part["dose"].to_numpy()))
+        r = part.iloc[k]
+        a = part.iloc[int(np.argmax(part["time_above_pain_threshold_s"].to_numpy()))]
+        reached = part["dose_reached_s"].notna().sum()
+        pain = ("never above the pain threshold" if not a["time_above_pain_threshold_s"] > 0
+                else f"longest time above the pain threshold "
+                     f"{a['time_above_pain_threshold_s']:.4g} s ({a['element']}, "
+                     f"{a['experiment']} {a['direction']}, trial {a['trial']})")
+        lines.append(f"- {arm}: largest dose {r['dose']:.3g} at {r['element']} "
+                     f"({r['experiment']} {r['direction']}, trial {r['trial']}); the limit is "
+                     f"reached by {reached} of {len(part)} element-trials; {pain}")
+    return "\n".join(lines) + "\n"
