@@ -328,3 +328,71 @@ def test_compare_exposure_matches_plain_loops(tmp_path):
     plain = compare(HARMONY_CONFIG, repo / "examples" / "experiment" / "manifest.yaml",
                     arms="rigid")
     assert plain.exposure is None
+
+
+# --------------------------------------------------------------------------- design
+def test_design_dose_objective_matches_plain_loops_over_every_sample(tmp_path):
+    from phri_spring.io.config import load_config
+    from phri_spring.workflows.common import model_from_config
+    from phri_spring.workflows.design_objectives import evaluate_design, load_set
+    from phri_spring.workflows.simulate import simulate
+
+    rng = np.random.default_rng(5)
+    logs = []
+    for i, n in enumerate((60, 25)):
+        t = np.cumsum(rng.choice([1.0, 30.0, 300.0], size=n))
+        W = np.round(np.column_stack([rng.normal(0, 25, (n, 3)) + [0, 0, 70],
+                                      rng.normal(0, 1, (n, 3))]), 1)
+        W[::4] = W[0]                        # repeated rows: merged by the load set
+        path = tmp_path / f"log{i}.csv"
+        pd.DataFrame(np.column_stack([t, W]), columns=["time", "Fx", "Fy", "Fz", "Mx", "My",
+                                                       "Mz"]).to_csv(path, index=False)
+        logs.append((t, W, path))
+    raw = harmony_dict()
+    raw["tolerance"] = {"curve": "cuff_knee_discomfort_2020"}
+    (tmp_path / "cfg.yaml").write_text(yaml.safe_dump(raw, sort_keys=False))
+    cfg = load_config(tmp_path / "cfg.yaml")
+    loads = load_set([p for _, _, p in logs])
+    assert len(loads.weights) < loads.n_samples
+    got = evaluate_design(cfg, loads, "compliant")["dose_max"]
+    # every sample of every log, its own step, in plain loops; each log starts at 0 s of dose
+    c = TOLERANCE_CURVES["cuff_knee_discomfort_2020"]
+    inv_area = np.asarray(model_from_config(cfg, "compliant").inv_area_kpa)
+    total = np.zeros(len(LABELS))
+    for t, W, _ in logs:
+        P = simulate(cfg, W, time=t).absolute_forces * inv_area
+        above = ref_exposure(c.times_s, c.limits_kpa, t, P, 120.0)[2]
+        total += above       # a time-independent limit: its dose is infinite once above
+    assert total.max() > 0
+    assert got == math.inf
+    # a time-dependent curve: finite, equal to the plain sum
+    raw["tolerance"] = {"curve": "linder_ganz_2006"}
+    (tmp_path / "cfg.yaml").write_text(yaml.safe_dump(raw, sort_keys=False))
+    cfg = load_config(tmp_path / "cfg.yaml")
+    c = TOLERANCE_CURVES["linder_ganz_2006"]
+    total = np.zeros(len(LABELS))
+    for t, W, _ in logs:
+        P = simulate(cfg, W, time=t).absolute_forces * inv_area
+        total += ref_exposure(c.times_s, c.limits_kpa, t, P, 120.0)[0][-1]
+    assert total.max() > 0
+    assert evaluate_design(cfg, loads, "compliant")["dose_max"] == pytest.approx(total.max(),
+                                                                                 rel=1e-9)
+    raw.pop("tolerance")
+    (tmp_path / "cfg.yaml").write_text(yaml.safe_dump(raw, sort_keys=False))
+    assert "dose_max" not in evaluate_design(load_config(tmp_path / "cfg.yaml"), loads,
+                                             "compliant")
+
+
+def test_a_study_minimising_the_dose_needs_a_curve(tmp_path):
+    from phri_spring.errors import ConfigError
+    from phri_spring.workflows.design import prepare_study
+
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump(harmony_dict(), sort_keys=False))
+    _log(tmp_path / "log.csv", n=10)
+    study = {"config": "base.yaml", "loads": ["log.csv"],
+             "vary": {"strap.tension": {"values": [5, 10]}}, "minimise": ["dose_max"]}
+    (tmp_path / "study.yaml").write_text(yaml.safe_dump(study, sort_keys=False))
+    with pytest.raises(ConfigError) as info:
+        prepare_study(tmp_path / "study.yaml")
+    msg = str(info.value)
+    assert "\n" not in msg and "study.yaml" in msg and "tolerance" in msg, msg
