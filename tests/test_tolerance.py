@@ -396,3 +396,35 @@ def test_a_study_minimising_the_dose_needs_a_curve(tmp_path):
         prepare_study(tmp_path / "study.yaml")
     msg = str(info.value)
     assert "\n" not in msg and "study.yaml" in msg and "tolerance" in msg, msg
+
+
+# --------------------------------------------------------------------------- live
+def test_live_dose_equals_simulate_and_its_alarm_is_raised_once(tmp_path):
+    from click.testing import CliRunner
+
+    from phri_cli.main import phri
+
+    log = _log(tmp_path / "log.csv", n=200)
+    sim = tmp_path / "sim.parquet"
+    assert run_phri("simulate", HARMONY_CONFIG, log, "-o", sim, "--tolerance",
+                    "linder_ganz_2006", "-q").exit_code == 0
+    ref = pd.read_parquet(sim)
+    dose = ref["dose_max"].to_numpy()
+    assert dose[-1] > 0
+    thr = float(0.5 * dose[-1])
+    out = tmp_path / "live.parquet"
+    res = CliRunner().invoke(phri, ["live", str(HARMONY_CONFIG), "--source", "-", "-o", str(out),
+                                    "--tolerance", "linder_ganz_2006", "--dose-alarm",
+                                    f"{thr!r}", "--no-progress"],
+                             input=log.read_bytes())
+    assert res.exit_code == 0, res.output
+    live = pd.read_parquet(out)
+    np.testing.assert_allclose(live["dose_max"], dose, rtol=1e-9)
+    assert list(live["dose_element"]) == list(ref["dose_element"])
+    assert res.stderr.count("DOSE ALARM") == 1
+    first = np.flatnonzero(dose >= thr)[0]
+    assert f"at t = {ref['time'][first]:.3f} s" in res.stderr
+    assert "dose alarms 1" in res.stderr
+    r = CliRunner().invoke(phri, ["live", str(HARMONY_CONFIG), "--source", "-", "--dose-alarm",
+                                  "1"], input=log.read_bytes())
+    assert_one_line_error(r, "--dose-alarm", "tolerance", code=2)

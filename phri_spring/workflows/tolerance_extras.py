@@ -157,3 +157,38 @@ def compare_exposure_markdown(table, curve) -> str:
                      f"({r['experiment']} {r['direction']}, trial {r['trial']}); the limit is "
                      f"reached by {reached} of {len(part)} element-trials; {pain}")
     return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- live
+class LiveDose:
+    """The dose of a live run, sample by sample, and its alarm (``phri live --dose-alarm``).
+
+    ``alarm`` is the live run's alarm object (raise level, clear level, hold; the same
+    hysteresis as the pressure alarm) or None. A dose never goes down, so once raised
+    the dose alarm stays on: the clear level only matters to keep the interface alike.
+    """
+
+    def __init__(self, model, curve, alarm=None):
+        self.tally = ExposureTally(model, curve)
+        self.alarm = alarm
+        self.rows = []          # (dose_max, element index) of the samples not yet written
+
+    @property
+    def exposure(self) -> Exposure:
+        return self.tally.exposure
+
+    def update(self, t: float, absolute_forces):
+        """Add one sample (absolute forces (n,) [N], NaN when not converged); returns
+        ``(dose, element index, alarm change or None)``."""
+        cols = self.tally.add(np.array([t], dtype=float), np.asarray(absolute_forces)[None])
+        dose, j = float(cols["dose_max"][0]), int(cols["dose_element"][0][0])
+        self.rows.append((dose, j))
+        change = None if self.alarm is None else self.alarm.update(dose, t)
+        return dose, j, change
+
+    def columns(self) -> dict:
+        """The dose columns of the samples added since the last call (then forgotten)."""
+        d = np.array([r[0] for r in self.rows], dtype=float)
+        i = np.array([r[1] for r in self.rows], dtype=np.intp)
+        self.rows.clear()
+        return {"dose_max": d, "dose_element": (i, self.tally.labels)}
