@@ -130,6 +130,12 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
 
         section = check_plot_path(section_path(plot), [log, config, output])
         config = load_config(config)
+        from phri_spring.io.config_tolerance import curve_option
+        from phri_spring.workflows.tolerance_extras import exposure_plot_path
+
+        exposure_plot = None
+        if curve_option(tolerance, config) is not None:
+            exposure_plot = check_plot_path(exposure_plot_path(plot), [log, config.path, output])
         # the pool and its figure hold about 2,000 groups per element: check before making it
         from phri_spring.io.logs import table_format
         from phri_spring.io.memory_budget import plan_stream
@@ -157,6 +163,12 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         write_simulate_plot(pooled, plot, labels=summary.labels,
                             pain_threshold_kpa=config.pain_threshold_kpa,
                             title=f"{Path(log).name}: {arm} arm", layout=config.patches)
+        if exposure_plot is not None and summary.exposure is not None:
+            from phri_spring.workflows.tolerance_extras import write_exposure_plot
+
+            write_exposure_plot(summary.exposure, summary.labels, exposure_plot,
+                                title=f"{Path(log).name}: {arm} arm, exposure against "
+                                      f"{summary.exposure.curve.name}")
         if pooled.peak_forces is not None:
             from phri_spring.workflows.section_plot import write_section_plot
 

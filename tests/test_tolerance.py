@@ -428,3 +428,41 @@ def test_live_dose_equals_simulate_and_its_alarm_is_raised_once(tmp_path):
     r = CliRunner().invoke(phri, ["live", str(HARMONY_CONFIG), "--source", "-", "--dose-alarm",
                                   "1"], input=log.read_bytes())
     assert_one_line_error(r, "--dose-alarm", "tolerance", code=2)
+
+
+# --------------------------------------------------------------------------- figure
+def test_binned_time_at_or_above_matches_plain_loops_and_the_figure_draws():
+    from matplotlib.figure import Figure
+
+    from phri_spring.reports.tolerance_figure import exposure_figure
+
+    rng = np.random.default_rng(11)
+    t, P, cuts = random_case(rng, 90, 3, 60.0)
+    edges = np.array([0.5, 5.0, 9.0, 20.0, 32.0, 50.0])
+    ex = Exposure("linder_ganz_2006", 3, 120.0, edges_kpa=edges)
+    feed(ex, t, P, cuts)
+    T = ex.time_at_or_above_s()
+    for e in range(3):
+        for b in range(len(edges) - 1):
+            want = 0.0
+            for k in range(1, len(t)):
+                dt = t[k] - t[k - 1]
+                p = P[k, e]
+                if dt > 0 and not math.isnan(p) and edges[b] <= p < edges[-1]:
+                    want += dt
+            assert T[e, b] == pytest.approx(want, abs=1e-9)
+    fig = exposure_figure(edges, T, labels=["a", "b", "c"], curve=ex.curve, dose=ex.dose,
+                          pain_threshold_kpa=40.0)
+    assert isinstance(fig, Figure) and len(fig.axes) == 1
+
+
+def test_simulate_plot_draws_the_exposure_only_with_a_curve(tmp_path):
+    log = _log(tmp_path / "log.csv", n=40)
+    r = run_phri("simulate", HARMONY_CONFIG, log, "-o", tmp_path / "a.csv", "--plot",
+                 tmp_path / "a.png", "-q")
+    assert r.exit_code == 0, r.output
+    assert not (tmp_path / "a_exposure.png").exists()
+    r = run_phri("simulate", HARMONY_CONFIG, log, "-o", tmp_path / "b.csv", "--plot",
+                 tmp_path / "b.png", "--tolerance", "reswick_rogers_1976", "-q")
+    assert r.exit_code == 0, r.output
+    assert (tmp_path / "b_exposure.png").stat().st_size > 1000

@@ -255,6 +255,10 @@ class Exposure:
     n_elements : int
     pain_threshold_kpa : float
         The threshold whose time above is counted with the curve's floor [kPa].
+    edges_kpa : array_like, optional
+        Increasing pressure bin edges [kPa]: also keep ``time_in_bin_s`` (n, len-1), the
+        time each element spent at a pressure in each bin (for the exposure figure;
+        pressures outside the edges are not binned).
 
     Attributes (per element, shape (n,))
     ------------------------------------
@@ -268,7 +272,7 @@ class Exposure:
     time (an unsorted log) counts as 0 s.
     """
 
-    def __init__(self, curve, n_elements: int, pain_threshold_kpa: float):
+    def __init__(self, curve, n_elements: int, pain_threshold_kpa: float, edges_kpa=None):
         self.curve = tolerance_curve(curve)
         self.pain_threshold_kpa = float(pain_threshold_kpa)
         n = int(n_elements)
@@ -279,6 +283,9 @@ class Exposure:
         self.pain_first_s = np.full(n, np.nan)
         self.samples = 0
         self._t_prev = math.nan
+        self.edges_kpa = None if edges_kpa is None else np.asarray(edges_kpa, dtype=float)
+        self.time_in_bin_s = None if edges_kpa is None else \
+            np.zeros((n, len(self.edges_kpa) - 1))
 
     def steps(self, time) -> np.ndarray:
         """``dt`` [s] of each sample of the next chunk (not stored)."""
@@ -315,11 +322,26 @@ class Exposure:
         cum = np.cumsum(inc, axis=0)
         cum += self.dose
         self._firsts(above, cum, t)
+        if self.edges_kpa is not None:
+            self._bin(p, col)
         self.dose = cum[-1].copy()
         self._t_prev = float(t[-1]) if math.isfinite(t[-1]) else self._t_prev
         self.samples += m
         idx = np.argmax(cum, axis=1)
         return cum[np.arange(m), idx], idx
+
+    def _bin(self, p, col) -> None:
+        nb = len(self.edges_kpa) - 1
+        b = np.searchsorted(self.edges_kpa, p, side="right") - 1     # NaN: past the end
+        ok = (b >= 0) & (b < nb)
+        flat = (np.arange(p.shape[1]) * nb + b)[ok]
+        w = np.broadcast_to(col, p.shape)[ok]
+        self.time_in_bin_s += np.bincount(flat, weights=w,
+                                          minlength=self.time_in_bin_s.size).reshape(-1, nb)
+
+    def time_at_or_above_s(self) -> np.ndarray:
+        """(n, bins) the time each element spent at or above each bin's lower edge [s]."""
+        return np.cumsum(self.time_in_bin_s[:, ::-1], axis=1)[:, ::-1]
 
     def _firsts(self, above, cum, t) -> None:
         for first, hit in ((self.pain_first_s, above), (self.dose_reached_s, cum >= 1.0)):

@@ -516,7 +516,8 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         chunks = prefetch(chunks)
     law = model.law
     tally = NoAnswerTally(arm_radius(model.geometry))
-    dose = None if tolerance is None else ExposureTally(model, tolerance)
+    dose = None if tolerance is None else ExposureTally(model, tolerance,
+                                                        binned=isinstance(on_chunk, MaxPool))
     try:
         summary = _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
                           tally, dose)

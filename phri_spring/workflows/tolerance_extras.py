@@ -32,14 +32,20 @@ EXPOSURE_TABLE_COLUMNS = ("element", "time_above_pain_threshold_s", "time_above_
                           "dose", "dose_reached_s", "first_above_pain_threshold_s")
 
 
+#: pressure bins of the exposure figure [kPa]: 0.1 kPa to 10 MPa, 100 per decade
+EXPOSURE_EDGES_KPA = np.geomspace(0.1, 1.0e4, 501)
+
+
 class ExposureTally:
     """An :class:`~phri_spring.physics.tolerance.Exposure` of a model's elements, fed the
-    absolute forces of each chunk in log order (on the solving thread)."""
+    absolute forces of each chunk in log order (on the solving thread); ``binned`` also
+    keeps the time at each pressure for the exposure figure."""
 
-    def __init__(self, model, curve):
+    def __init__(self, model, curve, binned: bool = False):
         self.labels = tuple(model.labels)
         self.inv_area_kpa = np.asarray(model.inv_area_kpa, dtype=float)
-        self.exposure = Exposure(curve, len(self.labels), model.pain_threshold_kpa)
+        self.exposure = Exposure(curve, len(self.labels), model.pain_threshold_kpa,
+                                 edges_kpa=EXPOSURE_EDGES_KPA if binned else None)
 
     @property
     def curve(self):
@@ -76,6 +82,28 @@ def write_exposure_table(path, labels, exposure: Exposure) -> Path:
     path = Path(path)
     with atomic_file(path) as tmp:
         Path(tmp).write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def exposure_plot_path(plot) -> Path:
+    """The exposure figure of ``simulate --plot FILE``: FILE's stem + ``_exposure``."""
+    p = Path(plot)
+    return p.with_name(p.stem + "_exposure" + p.suffix)
+
+
+def write_exposure_plot(exposure: Exposure, labels, path, *, title: str = "",
+                        dpi: int = 150) -> Path:
+    """Draw :func:`~phri_spring.reports.tolerance_figure.exposure_figure` of a binned
+    exposure and write it atomically (PNG, SVG or PDF by the extension)."""
+    from ..reports.compare_figures import save_figure
+    from ..reports.tolerance_figure import exposure_figure
+
+    fig = exposure_figure(exposure.edges_kpa, exposure.time_at_or_above_s(), labels=labels,
+                          curve=exposure.curve, dose=exposure.dose,
+                          pain_threshold_kpa=exposure.pain_threshold_kpa, title=title)
+    path = Path(path)
+    with atomic_file(path) as tmp:
+        save_figure(fig, tmp, dpi)
     return path
 
 
