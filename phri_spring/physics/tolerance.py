@@ -84,6 +84,7 @@ class ToleranceCurve:
     _log_t: np.ndarray = field(init=False, repr=False, compare=False)
     _p_up: np.ndarray = field(init=False, repr=False, compare=False)
     _log_t_up: np.ndarray = field(init=False, repr=False, compare=False)
+    _neg_log_t_up: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self):
         t = np.asarray(self.times_s, dtype=float)
@@ -110,6 +111,7 @@ class ToleranceCurve:
         # pressures increasing, so the points go in reverse (a plateau keeps its shortest time)
         object.__setattr__(self, "_p_up", p[::-1].copy())
         object.__setattr__(self, "_log_t_up", log_t[::-1].copy())
+        object.__setattr__(self, "_neg_log_t_up", -log_t[::-1])
 
     @property
     def time_independent(self) -> bool:
@@ -141,13 +143,17 @@ class ToleranceCurve:
             out = np.where(p < self.floor_kpa, np.inf, out)
         return np.where(np.isnan(p), np.nan, out)
 
-    def rate(self, pressure_kpa) -> np.ndarray:
+    def rate(self, pressure_kpa, at_or_above_floor: bool = False) -> np.ndarray:
         """Dose per second ``1 / t_allowed`` [1/s] at ``pressure_kpa`` (0 below the floor,
-        ``inf`` at or above a time-independent limit, 0 where the pressure is NaN)."""
+        ``inf`` at or above a time-independent limit, 0 where the pressure is NaN);
+        ``at_or_above_floor``: the caller knows every pressure is (no check)."""
         p = np.asarray(pressure_kpa, dtype=float)
         if self.time_independent:
             return np.where(p >= self.limits_kpa[0], np.inf, 0.0)
-        r = np.exp(-np.interp(p, self._p_up, self._log_t_up))
+        r = np.interp(p, self._p_up, self._neg_log_t_up)
+        r = np.exp(r, out=r) if isinstance(r, np.ndarray) else np.exp(r)
+        if at_or_above_floor:
+            return r
         return np.where(p >= self.floor_kpa, r, 0.0)   # NaN >= floor is False: 0
 
 
@@ -283,6 +289,7 @@ class Exposure:
         self.pain_first_s = np.full(n, np.nan)
         self.samples = 0
         self._t_prev = math.nan
+        self._best, self._best_idx = 0.0, 0      # the largest dose and its element
         self.edges_kpa = None if edges_kpa is None else np.asarray(edges_kpa, dtype=float)
         self.time_in_bin_s = None if edges_kpa is None else \
             np.zeros((n, len(self.edges_kpa) - 1))
@@ -297,38 +304,83 @@ class Exposure:
         np.subtract(t[1:], t[:-1], out=dt[1:])
         return np.where(dt > 0, dt, 0.0)     # NaN and backwards steps: 0
 
-    def add(self, time, pressure_kpa):
+    def add(self, time, pressure_kpa, scale=None):
         """Feed the next chunk: times (m,) [s], pressures (m, n) [kPa].
 
+        With ``scale`` (n,) > 0, ``pressure_kpa`` holds values whose pressure is
+        ``value * scale`` (forces [N] and ``1 / area`` [kPa/N]): only the entries at or
+        above a threshold are scaled.
+
         Returns ``(dose_max, dose_element)``: per sample, the largest cumulative dose
-        over the elements (m,) [-] and the index of its element (m,) (the first on ties).
+        over the elements (m,) [-] and its element (m,); on a tie, the element that
+        reached that dose first (the lowest index within one sample).
         """
         t = np.asarray(time, dtype=float)
-        p = np.asarray(pressure_kpa, dtype=float)
-        m = len(t)
-        if p.shape != (m, len(self.dose)):
-            raise _bad(f"pressure: expected shape ({m}, {len(self.dose)}), "
-                                  f"got {p.shape}")
+        v = np.asarray(pressure_kpa, dtype=float)
+        m, n = len(t), len(self.dose)
+        if v.shape != (m, n):
+            raise _bad(f"pressure: expected shape ({m}, {n}), got {v.shape}")
         if m == 0:
             return np.zeros(0), np.zeros(0, dtype=np.intp)
         dt = self.steps(t)
-        col = dt[:, None]
-        above = p > self.pain_threshold_kpa               # NaN compares False
-        self.time_above_pain_s += (above * col).sum(axis=0)
-        self.time_above_floor_s += ((p > self.curve.floor_kpa) * col).sum(axis=0)
-        rate = self.curve.rate(p)
-        inc = rate * col if not self.curve.time_independent else \
-            np.where(rate > 0, np.where(col > 0, np.inf, 0.0), 0.0)
-        cum = np.cumsum(inc, axis=0)
-        cum += self.dose
-        self._firsts(above, cum, t)
         if self.edges_kpa is not None:
-            self._bin(p, col)
-        self.dose = cum[-1].copy()
+            self._bin(v if scale is None else v * scale, dt[:, None])
         self._t_prev = float(t[-1]) if math.isfinite(t[-1]) else self._t_prev
         self.samples += m
-        idx = np.argmax(cum, axis=1)
-        return cum[np.arange(m), idx], idx
+        # everything below follows the entries at or above a threshold, element by element
+        floor, pain = self.curve.floor_kpa, self.pain_threshold_kpa
+        low = min(floor, pain)
+        mask_t = np.ascontiguousarray((v >= (low if scale is None else low / scale)).T)
+        lin = np.flatnonzero(mask_t)                      # NaN compares False: not there
+        cols, rows = np.divmod(lin, m)                    # by element, then in time order
+        p = v[rows, cols] if scale is None else v[rows, cols] * scale[cols]
+        w = dt[rows]
+        hit = p > floor
+        if hit.any():
+            self.time_above_floor_s += np.bincount(cols[hit], weights=w[hit], minlength=n)
+        hit = p > pain
+        if hit.any():
+            self.time_above_pain_s += np.bincount(cols[hit], weights=w[hit], minlength=n)
+            ch, rh = cols[hit], rows[hit]
+            k = np.flatnonzero(np.r_[True, ch[1:] != ch[:-1]])       # each one's first
+            new = np.isnan(self.pain_first_s[ch[k]])
+            self.pain_first_s[ch[k][new]] = t[rh[k][new]]
+        if len(p) == 0:
+            return np.full(m, self._best), np.full(m, self._best_idx, dtype=np.intp)
+        if self.curve.time_independent:            # no time allowed: infinite once pressed
+            inc = np.where((p >= floor) & (w > 0), np.inf, 0.0)
+        else:                                      # (0 below the floor: adds nothing)
+            inc = self.curve.rate(p, at_or_above_floor=low >= floor and scale is None)
+            inc *= w
+        c = self._accumulate(rows, cols, inc, t)
+        # the largest dose over the elements at each sample: each element's dose only grows,
+        # so it is the running maximum of the doses reached so far (and the chunk's start)
+        per_row = np.full(m, -np.inf)
+        np.maximum.at(per_row, rows, c)
+        at_max = c == per_row[rows]
+        per_row_idx = np.full(m, n, dtype=np.intp)
+        np.minimum.at(per_row_idx, rows[at_max], cols[at_max])      # lowest index in a row
+        run = np.maximum.accumulate(np.r_[self._best, per_row])
+        new = per_row > run[:-1]                                     # a strictly larger dose
+        last = np.maximum.accumulate(np.where(new, np.arange(1, m + 1), 0))
+        idx = np.r_[self._best_idx, per_row_idx][last]
+        best = run[1:]
+        self._best, self._best_idx = float(best[-1]), int(idx[-1])
+        return best, idx
+
+    def _accumulate(self, rows, cols, inc, t) -> np.ndarray:
+        """Each entry's cumulative dose after it (entries in column order, then row);
+        updates ``dose`` and ``dose_reached_s``."""
+        heads = np.flatnonzero(np.r_[True, cols[1:] != cols[:-1]])
+        out = np.empty_like(inc)
+        for a, b in zip(heads, np.r_[heads[1:], len(cols)]):
+            e = cols[a]
+            seg = np.cumsum(inc[a:b], out=out[a:b])
+            seg += self.dose[e]
+            self.dose[e] = seg[-1]
+            if seg[-1] >= 1.0 and np.isnan(self.dose_reached_s[e]):
+                self.dose_reached_s[e] = t[rows[a + int(np.argmax(seg >= 1.0))]]
+        return out
 
     def _bin(self, p, col) -> None:
         nb = len(self.edges_kpa) - 1
@@ -343,16 +395,6 @@ class Exposure:
         """(n, bins) the time each element spent at or above each bin's lower edge [s]."""
         return np.cumsum(self.time_in_bin_s[:, ::-1], axis=1)[:, ::-1]
 
-    def _firsts(self, above, cum, t) -> None:
-        for first, hit in ((self.pain_first_s, above), (self.dose_reached_s, cum >= 1.0)):
-            todo = np.isnan(first)
-            if not todo.any():
-                continue
-            anyhit = hit.any(axis=0) & todo
-            if anyhit.any():
-                first[anyhit] = t[np.argmax(hit[:, anyhit], axis=0)]
-
     def worst(self):
-        """``(index, dose)`` of the element with the largest dose (first on ties)."""
-        j = int(np.argmax(self.dose))
-        return j, float(self.dose[j])
+        """``(index, dose)`` of the element with the largest dose (the first to reach it)."""
+        return self._best_idx, float(self.dose[self._best_idx])

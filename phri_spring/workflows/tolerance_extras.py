@@ -53,8 +53,7 @@ class ExposureTally:
 
     def add(self, time, absolute_forces) -> dict:
         """The dose columns of the next chunk: times (m,) [s], absolute forces (m, n) [N]."""
-        pressure = np.asarray(absolute_forces, dtype=float) * self.inv_area_kpa   # kPa
-        dose, idx = self.exposure.add(time, pressure)
+        dose, idx = self.exposure.add(time, absolute_forces, scale=self.inv_area_kpa)
         return {"dose_max": dose, "dose_element": (idx, self.labels)}
 
 
