@@ -331,13 +331,20 @@ class Exposure:
         floor, pain = self.curve.floor_kpa, self.pain_threshold_kpa
         low = min(floor, pain)
         mask_t = np.ascontiguousarray((v >= (low if scale is None else low / scale)).T)
-        lin = np.flatnonzero(mask_t)                      # NaN compares False: not there
-        cols, rows = np.divmod(lin, m)                    # by element, then in time order
-        p = v[rows, cols] if scale is None else v[rows, cols] * scale[cols]
+        counts = np.count_nonzero(mask_t, axis=1)
+        cols = np.repeat(np.arange(n), counts)            # by element, then in time order
+        rows = np.flatnonzero(mask_t)                     # NaN compares False: not there
+        rows -= cols * m
+        flat = rows * n + cols
+        p = v.ravel()[flat] if v.flags.c_contiguous else v[rows, cols]
+        if scale is not None:
+            p *= scale[cols]
         w = dt[rows]
-        hit = p > floor
-        if hit.any():
-            self.time_above_floor_s += np.bincount(cols[hit], weights=w[hit], minlength=n)
+        heads = np.cumsum(counts) - counts                # each element's first entry
+        some = counts > 0
+        if some.any():
+            self.time_above_floor_s[some] += np.add.reduceat(np.where(p > floor, w, 0.0),
+                                                             heads[some])
         hit = p > pain
         if hit.any():
             self.time_above_pain_s += np.bincount(cols[hit], weights=w[hit], minlength=n)
