@@ -466,3 +466,18 @@ def test_simulate_plot_draws_the_exposure_only_with_a_curve(tmp_path):
                  tmp_path / "b.png", "--tolerance", "reswick_rogers_1976", "-q")
     assert r.exit_code == 0, r.output
     assert (tmp_path / "b_exposure.png").stat().st_size > 1000
+
+
+# --------------------------------------------------------------------------- docs
+def test_the_worked_example_of_the_docs_runs_and_matches_its_closed_form():
+    import re
+
+    doc = Path(__file__).resolve().parents[1] / "docs" / "tolerance.md"
+    blocks = re.findall(r"```python\n(.*?)```", doc.read_text(encoding="utf-8"), flags=re.S)
+    assert blocks
+    ns = {}
+    exec(compile(blocks[0], str(doc), "exec"), ns)  # noqa: S102 - our own docs
+    allowed = math.sqrt(3600.0 * 7200.0)             # halfway from 1 h to 2 h in log time
+    assert ns["dose_max"][1800] == pytest.approx(1800.0 / allowed, rel=1e-9)
+    reached = 1800.0 + (1.0 - 1800.0 / allowed) * 900.0
+    assert ns["exposure"].dose_reached_s[0] == math.ceil(reached)
