@@ -225,6 +225,12 @@ def test_simulate_dose_columns_match_plain_loops(tmp_path):
     np.testing.assert_allclose(table["time_above_curve_floor_s"], af, atol=1e-5)
     np.testing.assert_allclose(table["time_above_pain_threshold_s"], ap, atol=1e-5)
     assert af.max() > 0            # the log does press above 13.7 kPa somewhere
+    # CSV: chunks encoded on several threads, the dose still added in log order
+    csv = tmp_path / "forces.csv"
+    r = run_phri("simulate", HARMONY_CONFIG, log, "-o", csv, "--tolerance",
+                 "cuff_knee_discomfort_2020", "--chunk-rows", 23, "--decimals", -1, "-q")
+    assert r.exit_code == 0, r.output
+    np.testing.assert_allclose(pd.read_csv(csv)["dose_max"], cum.max(axis=1))
 
 
 def test_no_option_no_columns_and_same_forces(tmp_path):

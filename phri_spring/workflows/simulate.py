@@ -586,12 +586,15 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     acc = SummaryAccumulator(model.labels)
     cache = FactorCache()  # one run, one model: factorisations reused across chunks
 
-    def extras_job(number, time, chunk, dose_columns):
+    def extras_job(number, time, chunk):
         # runs on a writer thread, overlapping the solving of the next chunks
         def compute():
+            # first, so that a failure below cannot leave the next chunks waiting for it
+            dosed = {} if dose is None else dose.add_in_order(number, time,
+                                                              chunk.solution.forces)
             acc.add_load_path(number, model, chunk.solution)
             extras, idx = chunk.extras()
-            extras.update(dose_columns)
+            extras.update(dosed)
             acc.add_peak(number, time, extras, idx)
             if tally is not None:
                 tally.add(number, time, extras)
@@ -606,9 +609,7 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
         for number, (ch, W) in enumerate(chunks):
             chunk = _solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear)
             acc.add_solution(chunk.solution)
-            # the dose adds up in log order: here, not on the writer threads
-            job = extras_job(number, ch.time, chunk,
-                             {} if dose is None else dose.add(ch.time, chunk.solution.forces))
+            job = extras_job(number, ch.time, chunk)
             if on_chunk is not None:  # the observer needs the extras now, in order
                 extras = job()
                 on_chunk(ch.time, chunk.solution.forces, extras["peak_pressure_kPa"])

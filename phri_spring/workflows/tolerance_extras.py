@@ -12,6 +12,7 @@ Without a curve nothing is added: the table is the paper model's.
 from __future__ import annotations
 
 import math
+import threading
 from pathlib import Path
 from typing import Optional
 
@@ -42,6 +43,8 @@ class ExposureTally:
     keeps the time at each pressure for the exposure figure."""
 
     def __init__(self, model, curve, binned: bool = False):
+        self._turn = threading.Condition()
+        self._next, self._failed = 0, False
         self.labels = tuple(model.labels)
         self.inv_area_kpa = np.asarray(model.inv_area_kpa, dtype=float)
         self.exposure = Exposure(curve, len(self.labels), model.pain_threshold_kpa,
@@ -50,6 +53,24 @@ class ExposureTally:
     @property
     def curve(self):
         return self.exposure.curve
+
+    def add_in_order(self, number: int, time, absolute_forces) -> dict:
+        """:meth:`add` for chunk ``number`` (0, 1, ...), from any thread: waits until the
+        chunks before it are added. Chunks must be handed to threads in order (a FIFO
+        pool), so that the one waited for is already running."""
+        with self._turn:
+            self._turn.wait_for(lambda: self._next == number or self._failed)
+            if self._failed:
+                raise RuntimeError("the dose of an earlier chunk failed")
+            try:
+                out = self.add(time, absolute_forces)
+            except BaseException:
+                self._failed = True
+                raise
+            finally:
+                self._next += 1
+                self._turn.notify_all()
+        return out
 
     def add(self, time, absolute_forces) -> dict:
         """The dose columns of the next chunk: times (m,) [s], absolute forces (m, n) [N]."""
