@@ -331,16 +331,15 @@ class Exposure:
         floor, pain = self.curve.floor_kpa, self.pain_threshold_kpa
         low = min(floor, pain)
         mask_t = np.ascontiguousarray((v >= (low if scale is None else low / scale)).T)
-        counts = np.count_nonzero(mask_t, axis=1)
-        cols = np.repeat(np.arange(n), counts)            # by element, then in time order
         rows = np.flatnonzero(mask_t)                     # NaN compares False: not there
+        bounds = np.searchsorted(rows, np.arange(n + 1) * m)
+        heads, counts = bounds[:-1], np.diff(bounds)      # each element's entries
+        cols = np.repeat(np.arange(n), counts)            # by element, then in time order
         rows -= cols * m
-        flat = rows * n + cols
-        p = v.ravel()[flat] if v.flags.c_contiguous else v[rows, cols]
+        p = v.ravel()[rows * n + cols] if v.flags.c_contiguous else v[rows, cols]
         if scale is not None:
-            p *= scale[cols]
+            p *= np.repeat(scale, counts)
         w = dt[rows]
-        heads = np.cumsum(counts) - counts                # each element's first entry
         some = counts > 0
         if some.any():
             self.time_above_floor_s[some] += np.add.reduceat(np.where(p > floor, w, 0.0),
