@@ -358,6 +358,18 @@ class Exposure:
         else:                                      # (0 below the floor: adds nothing)
             inc = self.curve.rate(p, at_or_above_floor=low >= floor and scale is None)
             inc *= w
+        # an element whose dose ends the chunk at or below the largest dose at its start
+        # can neither lead nor reach 1 within it: its sum is enough
+        some = np.flatnonzero(counts)
+        end = self.dose.copy()
+        end[some] += np.add.reduceat(inc, heads[some])
+        follow = (end > self._best) | ((end >= 1.0) & np.isnan(self.dose_reached_s))
+        follow &= counts > 0
+        self.dose[~follow] = end[~follow]
+        if not follow.any():
+            return np.full(m, self._best), np.full(m, self._best_idx, dtype=np.intp)
+        keep = np.repeat(follow, counts)
+        rows, cols, inc = rows[keep], cols[keep], inc[keep]
         c = self._accumulate(rows, cols, inc, t)
         # the largest dose over the elements at each sample: each element's dose only grows,
         # so it is the running maximum of the doses reached so far (and the chunk's start)
