@@ -340,10 +340,12 @@ class Exposure:
         if scale is not None:
             p *= np.repeat(scale, counts)
         w = dt[rows]
-        some = counts > 0
-        if some.any():
-            self.time_above_floor_s[some] += np.add.reduceat(np.where(p > floor, w, 0.0),
-                                                             heads[some])
+        # every entry above the floor (unless the pain threshold is lower, or at the floor)
+        clean = low >= floor and not (p <= floor).any()
+        some = np.flatnonzero(counts)
+        if len(some):
+            above = w if clean else np.where(p > floor, w, 0.0)
+            self.time_above_floor_s[some] += np.add.reduceat(above, heads[some])
         hit = p > pain
         if hit.any():
             self.time_above_pain_s += np.bincount(cols[hit], weights=w[hit], minlength=n)
@@ -356,11 +358,10 @@ class Exposure:
         if self.curve.time_independent:            # no time allowed: infinite once pressed
             inc = np.where((p >= floor) & (w > 0), np.inf, 0.0)
         else:                                      # (0 below the floor: adds nothing)
-            inc = self.curve.rate(p, at_or_above_floor=low >= floor and scale is None)
+            inc = self.curve.rate(p, at_or_above_floor=clean)
             inc *= w
         # an element whose dose ends the chunk at or below the largest dose at its start
         # can neither lead nor reach 1 within it: its sum is enough
-        some = np.flatnonzero(counts)
         end = self.dose.copy()
         end[some] += np.add.reduceat(inc, heads[some])
         follow = (end > self._best) | ((end >= 1.0) & np.isnan(self.dose_reached_s))
@@ -368,8 +369,9 @@ class Exposure:
         self.dose[~follow] = end[~follow]
         if not follow.any():
             return np.full(m, self._best), np.full(m, self._best_idx, dtype=np.intp)
-        keep = np.repeat(follow, counts)
-        rows, cols, inc = rows[keep], cols[keep], inc[keep]
+        if not follow[some].all():
+            keep = np.repeat(follow, counts)
+            rows, cols, inc = rows[keep], cols[keep], inc[keep]
         c = self._accumulate(rows, cols, inc, t)
         # the largest dose over the elements at each sample: each element's dose only grows,
         # so it is the running maximum of the doses reached so far (and the chunk's start)
