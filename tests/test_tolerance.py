@@ -124,6 +124,22 @@ def test_dose_and_times_match_plain_loops_across_chunks(name):
         np.testing.assert_array_equal(ex.dose_reached_s[~near], fd[~near])
 
 
+@pytest.mark.parametrize("name", sorted(TOLERANCE_CURVES))
+def test_sample_by_sample_matches_plain_loops(name):
+    curve = TOLERANCE_CURVES[name]
+    rng = np.random.default_rng(abs(hash(name + "1")) % 2**32)
+    pmax = 1.3 * max(curve.limits_kpa[0], 30.0)
+    t, P, _ = random_case(rng, 80, 4, pmax)
+    ex = Exposure(name, 4, pain_threshold_kpa=0.6 * pmax)
+    got = np.array([ex.add_sample(t[k], P[k])[0] for k in range(len(t))])
+    cum, ap, af, fp, fd = ref_exposure(curve.times_s, curve.limits_kpa, t, P, 0.6 * pmax)
+    np.testing.assert_allclose(got, cum.max(axis=1), rtol=1e-9)
+    np.testing.assert_allclose(ex.dose, cum[-1], rtol=1e-9)
+    np.testing.assert_allclose(ex.time_above_pain_s, ap, rtol=1e-12)
+    np.testing.assert_allclose(ex.time_above_floor_s, af, rtol=1e-12)
+    np.testing.assert_array_equal(ex.pain_first_s, fp)
+
+
 def test_held_exactly_the_allowed_time_gives_dose_one():
     # Linder-Ganz: 40 kPa is above the 32 kPa plateau: 15 min; 20.5 kPa is halfway from
     # 32 to 9 kPa, i.e. halfway from 1 h to 2 h in log time: sqrt(3600 * 7200) s

@@ -388,6 +388,41 @@ class Exposure:
         self._best, self._best_idx = float(best[-1]), int(idx[-1])
         return best, idx
 
+    def add_sample(self, t: float, pressure_kpa, scale=None):
+        """:meth:`add` for one sample (a live stream): pressures (n,) [kPa] (or values
+        times ``scale``); returns ``(dose_max, dose_element)`` of that sample."""
+        p = np.asarray(pressure_kpa, dtype=float)
+        if scale is not None:
+            p = p * scale
+        t = float(t)
+        dt = t - self._t_prev if math.isfinite(self._t_prev) else 0.0
+        dt = dt if dt > 0 else 0.0                        # NaN and backwards steps: 0
+        if math.isfinite(t):
+            self._t_prev = t
+        self.samples += 1
+        if self.edges_kpa is not None:
+            self._bin(p[None], np.array([[dt]]))
+        above = p > self.pain_threshold_kpa
+        if above.any():
+            self.time_above_pain_s[above] += dt
+            first = above & np.isnan(self.pain_first_s)
+            self.pain_first_s[first] = t
+        if dt > 0:
+            self.time_above_floor_s[p > self.curve.floor_kpa] += dt
+            rate = self.curve.rate(p)
+            if self.curve.time_independent:
+                rate[rate > 0] = np.inf
+                self.dose += rate
+            else:
+                self.dose += rate * dt
+            reached = (self.dose >= 1.0) & np.isnan(self.dose_reached_s)
+            if reached.any():
+                self.dose_reached_s[reached] = t
+            j = int(np.argmax(self.dose))
+            if self.dose[j] > self._best:
+                self._best, self._best_idx = float(self.dose[j]), j
+        return self._best, self._best_idx
+
     def _accumulate(self, rows, cols, inc, t) -> np.ndarray:
         """Each entry's cumulative dose after it (entries in column order, then row);
         updates ``dose`` and ``dose_reached_s``."""

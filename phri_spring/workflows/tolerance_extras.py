@@ -228,8 +228,7 @@ class LiveDose:
     def update(self, t: float, absolute_forces):
         """Add one sample (absolute forces (n,) [N], NaN when not converged); returns
         ``(dose, element index, alarm change or None)``."""
-        cols = self.tally.add(np.array([t], dtype=float), np.asarray(absolute_forces)[None])
-        dose, j = float(cols["dose_max"][0]), int(cols["dose_element"][0][0])
+        dose, j = self.tally.exposure.add_sample(t, absolute_forces, self.tally.inv_area_kpa)
         self.rows.append((dose, j))
         change = None if self.alarm is None else self.alarm.update(dose, t)
         return dose, j, change
