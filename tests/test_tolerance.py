@@ -506,3 +506,21 @@ def test_the_worked_example_of_the_docs_runs_and_matches_its_closed_form():
     assert ns["dose_max"][1800] == pytest.approx(1800.0 / allowed, rel=1e-9)
     reached = 1800.0 + (1.0 - 1800.0 / allowed) * 900.0
     assert ns["exposure"].dose_reached_s[0] == math.ceil(reached)
+
+
+def test_a_study_can_minimise_the_dose(tmp_path):
+    raw = harmony_dict()
+    raw["tolerance"] = {"curve": "linder_ganz_2006"}
+    (tmp_path / "base.yaml").write_text(yaml.safe_dump(raw, sort_keys=False))
+    _log(tmp_path / "log.csv", n=40)
+    study = {"config": "base.yaml", "loads": ["log.csv"],
+             "vary": {"strap.tension": {"values": [5, 40]}},
+             "minimise": ["dose_max", "peak_pressure_to_pain_threshold"]}
+    (tmp_path / "study.yaml").write_text(yaml.safe_dump(study, sort_keys=False))
+    r = run_phri("design", tmp_path / "study.yaml", "-o", tmp_path / "out", "--no-figures")
+    assert r.exit_code == 0, r.output
+    table = pd.read_csv(tmp_path / "out" / "designs.csv")
+    assert np.all(table["dose_max"] > 0)
+    # a tighter strap presses harder: a larger dose
+    d = dict(zip(table["strap.tension"], table["dose_max"]))
+    assert d[40] > d[5]
