@@ -205,26 +205,27 @@ _CURVES = (
     _constant(
         "cuff_knee_discomfort_2020", "discomfort", "human knee",
         "pneumatic cuff around the knee, continuous compression while standing", 13.7,
-        "Kermavnar T, O'Sullivan KJ, de Eyto A, O'Sullivan LW (2020). Discomfort/pain due to "
-        "circumferential compression at the knee (soft exoskeletons). Ergonomics "
-        "63(5):618-628",
+        "Kermavnar T et al. (2020), University of Limerick: circumferential compression at "
+        "the knee with a pneumatic cuff, standing and walking. Ergonomics 63(5):618-628",
         "10.1080/00140139.2020.1743373",
         "Discomfort detection from 13.7 kPa (continuous compression) to 30.4 kPa "
-        "(intermittent); this curve takes the lower, continuous value. A threshold at onset."),
+        "(intermittent); this curve takes the lower, continuous value. A threshold at onset. "
+        "Values and DOI checked against the abstract; the author list was not."),
     _constant(
         "cuff_knee_pain_2020", "pain", "human knee",
         "pneumatic cuff around the knee, continuous compression while standing", 52.9,
-        "Kermavnar T, O'Sullivan KJ, de Eyto A, O'Sullivan LW (2020). Discomfort/pain due to "
-        "circumferential compression at the knee (soft exoskeletons). Ergonomics "
-        "63(5):618-628",
+        "Kermavnar T et al. (2020), University of Limerick: circumferential compression at "
+        "the knee with a pneumatic cuff, standing and walking. Ergonomics 63(5):618-628",
         "10.1080/00140139.2020.1743373",
         "Pain detection from 52.9 kPa (continuous compression) to 60.6 kPa (intermittent); "
-        "this curve takes the lower, continuous value. A threshold at onset."),
+        "this curve takes the lower, continuous value. A threshold at onset. Values and DOI "
+        "checked against the abstract; the author list was not."),
     _constant(
         "paper_upper_arm_pain", "pain", "human upper arm",
         "small hand-held probe (pressure algometer)", 120.0,
-        "The pain threshold of the phri-spring paper's model: the lowest upper-arm pressure "
-        "pain threshold it cites (interface.pain_threshold_kpa, default 120 kPa)",
+        "Yousaf et al., A Method for the Analysis of Physical Human-Robot Interaction (the "
+        "paper phri-spring implements): the lowest upper-arm pressure pain threshold it "
+        "cites, interface.pain_threshold_kpa's default",
         "",
         "Measured with a small probe: a cuff spreads the load over a larger area, where the "
         "threshold is far lower (see cuff_calf_pain_2001). A threshold at onset."),
