@@ -77,7 +77,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     OUT gets time [s], one column per element (A0 ... C6) with the normal
     force [N], then contacts_in_touch, peak_pressure_kPa,
     peak_pressure_element, peak_pressure_to_pain_threshold [-],
-    solver_iterations and converged.
+    solver_iterations and converged; with a tolerance curve (--tolerance or
+    tolerance.curve), also dose_max [-] and dose_element.
 
     \b
     Example:
