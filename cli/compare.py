@@ -32,10 +32,14 @@ from ._common import info, progress_enabled
               help="SDs of the draws: tissue=from_csv|FRACTION (k0), stiffening=from_csv|"
                    "FRACTION (the exponential law's beta), tension=N.")
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the draws.")
+@click.option("--tolerance", default=None, metavar="CURVE",
+              help="Also judge each arm's predicted pressures, held over every condition's "
+                   "window, against a pressure-time curve (docs/tolerance.md): exposure.csv "
+                   "and a section of report.md. Default: the config's tolerance.curve.")
 @click.option("-q", "--quiet", is_flag=True,
               help="Print nothing on success (the summary is in OUTDIR/summary.csv).")
 def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures, dpi, quiet,
-            uncertainty=None, uncertainty_sd=None, seed=0):
+            uncertainty=None, uncertainty_sd=None, seed=0, tolerance=None):
     """Compare predicted and measured cuff loads [N] for every trial and condition.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). MANIFEST is
@@ -71,10 +75,14 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
                                                summary_markdown, write_compare)
 
     arm_list = parse_arms(arms)
+    if tolerance is not None:
+        from phri_spring.io.config_tolerance import curve_option
+
+        curve_option(tolerance)       # an unknown name is refused before anything is read
     check_output_path(output, [config, manifest, tissue_stiffness], option="-o/--output",
                       directory=True)
     result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness,
-                         group=group)
+                         group=group, tolerance=tolerance)
     if uncertainty is not None:  # computed before anything is written: a failure leaves nothing
         from phri_spring.io.memory_budget import check_draws
         from phri_spring.workflows.compare_bands import compare_bands, write_compare_bands
@@ -104,5 +112,10 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
 
     law = (f"; {arms_law_text(result.config, result.arms)}"
            if is_nonlinear(result.config) and set(result.arms) - {"rigid"} else "")
+    dose = ""
+    if result.exposure is not None:
+        worst = result.exposure.loc[result.exposure["dose"].idxmax()]
+        dose = (f"; predicted dose ({result.tolerance.name}) max {worst['dose']:.3g} at "
+                f"{worst['element']} ({worst['arm']} arm, trial {worst['trial']})")
     info(f"wrote {out.outdir} ({len(result.trials)} trials, {len(result.rmse)} RMSE values, "
-         f"{n_heat} heat maps{law}); see {out.outdir / 'report.md'}", quiet)
+         f"{n_heat} heat maps{law}{dose}); see {out.outdir / 'report.md'}", quiet)

@@ -47,6 +47,14 @@ from ._common import ArmChoice, info, progress_enabled
               metavar="S",
               help="Shortest time [s] (of the stream's clock) the alarm stays raised; 0 with "
                    "--alarm-clear equal to --alarm: no hysteresis.")
+@click.option("--tolerance", default=None, metavar="CURVE",
+              help="Follow every element's dose against a pressure-time curve "
+                   "(docs/tolerance.md); the table gets dose_max and dose_element. "
+                   "Default: the config's tolerance.curve, else none.")
+@click.option("--dose-alarm", type=click.FloatRange(min=0, min_open=True), default=None,
+              metavar="DOSE",
+              help="A line (and an LSL marker) when the largest dose reaches DOSE (1 = the "
+                   "curve's limit); a dose never goes down, so it stays raised. Needs a curve.")
 @click.option("--duration", type=click.FloatRange(min=0, min_open=True), default=None,
               metavar="S", help="Stop after S seconds [s].")
 @click.option("--max-samples", type=click.IntRange(min=1), default=None, metavar="N",
@@ -69,7 +77,7 @@ from ._common import ArmChoice, info, progress_enabled
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
 def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm_clear,
          alarm_hold, duration, max_samples, columns, counts_per_force, counts_per_torque,
-         stall_timeout, decimals, progress, quiet):
+         stall_timeout, decimals, progress, quiet, tolerance=None, dose_alarm=None):
     """Predict the force on every cuff element for each sample of a live wrench stream.
 
     Every sample goes through CONFIG's model (single-sample solver, warm-started)
@@ -88,6 +96,10 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm
 
     base = parse_baseline(baseline)
     check_alarm_settings(alarm, alarm_clear, alarm_hold)
+    if tolerance is not None:
+        from phri_spring.io.config_tolerance import curve_option
+
+        curve_option(tolerance)          # an unknown name is refused before anything opens
     dash = None
     if dashboard is not None:
         from phri_spring.io.live_dashboard import LiveDashboard, parse_address
@@ -97,7 +109,7 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm
         _live(config, source, arm, output, lsl_out, dash, base, (alarm, alarm_clear, alarm_hold),
               duration, max_samples,
               columns, counts_per_force, counts_per_torque, stall_timeout, decimals, progress,
-              quiet)
+              quiet, (tolerance, dose_alarm))
     finally:
         if dash is not None:
             dash.close()
@@ -105,7 +117,7 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm
 
 def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, duration,
           max_samples, columns, counts_per_force, counts_per_torque, stall_timeout, decimals,
-          progress, quiet):
+          progress, quiet, dose_settings=(None, None)):
     from phri_spring.errors import UsageError
     from phri_spring.io.config import load_config
     from phri_spring.io.live_sources import import_pylsl, make_source
@@ -139,7 +151,7 @@ def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, dura
     run = LiveRun(cfg, src, arm=arm, baseline=base, output=output, decimals=decimals,
                   lsl_out=lsl_out, alarm=alarm, alarm_clear=alarm_clear, alarm_hold=alarm_hold,
                   duration=duration, max_samples=max_samples,
-                  notify=notify)
+                  notify=notify, tolerance=dose_settings[0], dose_alarm=dose_settings[1])
     if dash is not None:
         from phri_spring.workflows.section_plot import live_section_meta
 
@@ -184,4 +196,14 @@ def summary_line(summary, arm: str, baseline) -> str:
     nc = (f", {summary.not_converged:,} not converged (NaN)" if summary.not_converged else "")
     return (f"live: {summary.samples:,} samples from {summary.source} ({arm} arm, baseline "
             f"{baseline}), lost {summary.lost:,}, malformed {summary.malformed:,}, "
-            f"gaps {gaps}{nc}; {peak}; alarms {summary.alarms}; {why}{wrote}")
+            f"gaps {gaps}{nc}; {peak}; alarms {summary.alarms}{_dose_text(summary)}; "
+            f"{why}{wrote}")
+
+
+def _dose_text(summary) -> str:
+    """The summary's clause on the dose (nothing without a tolerance curve)."""
+    ex = getattr(summary, "exposure", None)
+    if ex is None or not summary.samples:
+        return ""
+    j, dose = ex.worst()
+    return f"; dose ({ex.curve.name}) max {dose:.3g}, dose alarms {summary.dose_alarms}"

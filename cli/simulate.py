@@ -41,6 +41,12 @@ from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
                    "map, both max-pooled over time (no peak lost; bounded memory); and, "
                    "in FILE's stem + '_section', the pressure around the limb in the sample "
                    "of the peak, row by row.")
+@click.option("--tolerance", default=None, metavar="CURVE",
+              help="Judge how long each element is pressed against a pressure-time curve "
+                   "(linder_ganz_2006, reswick_rogers_1976, cuff_calf_pain_2001, ...; "
+                   "docs/tolerance.md): adds the columns dose_max [-] and dose_element and "
+                   "writes every element's time above the thresholds to OUT's stem + "
+                   "'_exposure.csv'. Default: the config's tolerance.curve, else none.")
 @click.option("--chunk-rows", type=click.IntRange(min=1), default=65536, show_default=True,
               help="Samples per chunk (bounds memory on long logs); a hint: fewer rows are "
                    "used on fine meshes and when the machine's memory is short.")
@@ -57,7 +63,8 @@ from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
               help="Seed of the Monte Carlo draws.")
 @click.option("-q", "--quiet", is_flag=True, help="No summary line.")
 def simulate(config, log, output, arm, shear, baseline, columns, group, decimals, plot,
-             chunk_rows, progress, quiet, uncertainty=None, uncertainty_sd=None, seed=0):
+             chunk_rows, progress, quiet, uncertainty=None, uncertainty_sd=None, seed=0,
+             tolerance=None):
     """Predict the normal force [N] on every cuff element for each sample of LOG.
 
     CONFIG is a YAML config (see configs/harmony_upper_arm.yaml). LOG is a CSV
@@ -70,7 +77,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     OUT gets time [s], one column per element (A0 ... C6) with the normal
     force [N], then contacts_in_touch, peak_pressure_kPa,
     peak_pressure_element, peak_pressure_to_pain_threshold [-],
-    solver_iterations and converged.
+    solver_iterations and converged; with a tolerance curve (--tolerance or
+    tolerance.curve), also dose_max [-] and dose_element.
 
     \b
     Example:
@@ -88,6 +96,16 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         if lab_format(log) is None:
             raise UsageError("--group applies to .tdms and .mat logs only", key="--group")
     base = parse_baseline(baseline)
+    if tolerance is not None:
+        from phri_spring.io.config_tolerance import curve_option
+
+        curve_option(tolerance)       # an unknown name is refused before anything is read
+        if uncertainty is not None:
+            from phri_spring.errors import UsageError
+
+            raise UsageError("a dose adds up one run's pressures over time; --uncertainty "
+                             "writes percentiles of forces, not a run: use one or the other",
+                             key="--tolerance")
     if uncertainty is not None:
         from phri_spring.workflows.uncertainty import run_cli
         if base.kind == "none":   # (run_cli refuses any other baseline with its own line)
@@ -113,6 +131,12 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
 
         section = check_plot_path(section_path(plot), [log, config, output])
         config = load_config(config)
+        from phri_spring.io.config_tolerance import curve_option
+        from phri_spring.workflows.tolerance_extras import exposure_plot_path
+
+        exposure_plot = None
+        if curve_option(tolerance, config) is not None:
+            exposure_plot = check_plot_path(exposure_plot_path(plot), [log, config.path, output])
         # the pool and its figure hold about 2,000 groups per element: check before making it
         from phri_spring.io.logs import table_format
         from phri_spring.io.memory_budget import plan_stream
@@ -127,7 +151,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
                                 group=group, shear=shear,
                                 chunk_rows=chunk_rows, decimals=decimals,
-                                progress=bar if bar.enabled else None, on_chunk=pool)
+                                progress=bar if bar.enabled else None, on_chunk=pool,
+                                tolerance=tolerance)
     finally:
         bar.close()
     if pool is not None:
@@ -139,6 +164,12 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         write_simulate_plot(pooled, plot, labels=summary.labels,
                             pain_threshold_kpa=config.pain_threshold_kpa,
                             title=f"{Path(log).name}: {arm} arm", layout=config.patches)
+        if exposure_plot is not None and summary.exposure is not None:
+            from phri_spring.workflows.tolerance_extras import write_exposure_plot
+
+            write_exposure_plot(summary.exposure, summary.labels, exposure_plot,
+                                title=f"{Path(log).name}: {arm} arm, exposure against "
+                                      f"{summary.exposure.curve.name}")
         if pooled.peak_forces is not None:
             from phri_spring.workflows.section_plot import write_section_plot
 
@@ -159,6 +190,10 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     law = _law_clause(config, arm)
     mu = summary.friction_coefficient
     contact = f", friction mu = {mu:g}" if mu is not None else ""
+    if summary.exposure is not None:
+        from phri_spring.workflows.tolerance_extras import exposure_text
+
+        peak += f"; {exposure_text(summary.labels, summary.exposure)} ({summary.exposure_table})"
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
          f"{arm} arm{law}{contact}, baseline {base}); {peak}; {load_path_text(summary)}; "
          f"solver {summary.mean_iterations:.2f} "

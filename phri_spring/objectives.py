@@ -59,6 +59,12 @@ class SolvedLoadSet:
         Ascending principal values of the translational [N/m] and rotational
         [N*m/rad] blocks of the interface stiffness at the preloaded state,
         expressed at the load cell; None when they could not be computed.
+    seconds : ndarray, shape (k,), or None
+        Time each row stands for [s]: the sum of the steps ``t_n - t_(n-1)`` of its
+        samples (docs/tolerance.md).
+    tolerance : object or None
+        The config's pressure-time curve: anything with ``rate(pressure_kpa)`` [1/s]
+        (physics.tolerance.ToleranceCurve); None without one.
     """
 
     pressure_kpa: np.ndarray
@@ -69,6 +75,8 @@ class SolvedLoadSet:
     n_samples: int
     pain_threshold_kpa: float
     principal_stiffness: Optional[tuple] = None
+    seconds: Optional[np.ndarray] = None
+    tolerance: Optional[object] = None
 
     @cached_property
     def peak_ratio(self) -> np.ndarray:
@@ -95,6 +103,9 @@ class Objective:
     uses_loads : bool
         Depends on the solved load set: NaN when a sample did not converge.
         False for properties of the preloaded interface alone.
+    needs_tolerance : bool
+        Defined only with a tolerance curve in the config (``tolerance.curve``): no
+        column without one.
     """
 
     name: str
@@ -103,6 +114,7 @@ class Objective:
     description: str
     compute: Callable[[SolvedLoadSet], float]
     uses_loads: bool = True
+    needs_tolerance: bool = False
 
 
 # --------------------------------------------------------------------------- reductions
@@ -190,6 +202,15 @@ def _peak_cuff_displacement(s: SolvedLoadSet) -> float:
     return 1000.0 * max_displacement_m(s.u, s.points)
 
 
+def _dose_max(s: SolvedLoadSet) -> float:
+    if s.tolerance is None or s.seconds is None:
+        return math.nan
+    held = np.asarray(s.seconds, dtype=float)[:, None]
+    with np.errstate(invalid="ignore"):     # inf * 0: a row that lasts no time adds nothing
+        dose = np.where(held > 0, s.tolerance.rate(s.pressure_kpa) * held, 0.0)
+    return float(dose.sum(axis=0).max())
+
+
 # --------------------------------------------------------------------------- the table
 _AT_LOADCELL = ("of the interface stiffness at the preloaded state (zero wrench), expressed at "
                 "the load cell (docs/model.md, sections 4 and 5)")
@@ -217,6 +238,11 @@ OBJECTIVE_TABLE: tuple = (
               "max over samples of the largest displacement of an element point of the cuff, "
               "|t + w x p_e|",
               _peak_cuff_displacement),
+    Objective("dose_max", "-", "min",
+              "max over elements of the cumulative dose sum_n dt_n / t_allowed(p_e,n) against "
+              "the config's tolerance.curve over the whole load set (1 = the curve's limit; "
+              "docs/tolerance.md); only with a curve",
+              _dose_max, needs_tolerance=True),
 )
 
 OBJECTIVE_BY_NAME: dict = {o.name: o for o in OBJECTIVE_TABLE}

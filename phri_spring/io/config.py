@@ -27,6 +27,7 @@ from .columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
 from .config_geometry import (check_scan_alone, geometry_sections, per_row_values, read_scan,
                               scan_geometry)
 from .config_history import ACTIVATION_FACTOR, Relaxation
+from .config_tolerance import parse_tolerance
 from .config_values import check_plausible
 from .config_values import resolve_stiffness  # noqa: F401 - importable from here too
 from .yaml_loader import (MAX_INT_DIGITS, MAX_YAML_BYTES, MAX_YAML_DEPTH,  # noqa: F401
@@ -195,6 +196,9 @@ class _Root(_Strict):
     interface: _Interface = Field(default_factory=_Interface)
     strap: _Strap = Field(default_factory=_Strap)
     solver: _Solver = Field(default_factory=_Solver)
+    #: optional pressure-time tolerance curve (docs/tolerance.md); checked by
+    #: io/config_tolerance.py
+    tolerance: Any = None
 
 
 def config_units() -> dict:
@@ -309,6 +313,8 @@ class Config:
     #: the 'phri fit-stiffness' CSV tissue_stiffness came from, if any (its SDs are the
     #: stiffness scatter of a Monte Carlo with tissue=from_csv)
     tissue_stiffness_csv: Optional[Path] = None
+    #: tolerance.curve (a physics.tolerance.ToleranceCurve), None without the section
+    tolerance: Optional[Any] = None
 
     def geometry(self):
         """The element geometry (:class:`~phri_spring.physics.geometry.CuffGeometry`) it describes."""
@@ -512,6 +518,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         tissue_relaxation=None if root.tissue.relaxation is None else
         (tuple(root.tissue.relaxation.fractions), tuple(root.tissue.relaxation.times_s)),
         activation_factor=float(root.tissue.activation_factor),
+        tolerance=parse_tolerance(root.tolerance, path),
     )
 
 

@@ -88,7 +88,7 @@ def design_report(result, figs: list) -> str:
         lines.append(f"Design {result.best} (the lowest `{st.best}` among the Pareto designs), "
                      "written as a complete config to `best.yaml`, ready for `phri simulate`:")
         lines.append("")
-        keep = [p.path for p in st.parameters] + list(OBJECTIVES)
+        keep = [p.path for p in st.parameters] + [o for o in OBJECTIVES if o in t.columns]
         lines.append(_md_table(t.loc[[result.best], ["design"] + keep]))
         r = float(b["peak_pressure_to_pain_threshold"])
         if math.isfinite(r):

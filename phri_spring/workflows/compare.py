@@ -47,7 +47,9 @@ from ..io.logs import reader_options
 from ..physics.metrics import mean_and_se, rmse as rmse_eq1, zero_on
 from ..physics.solver import solve_segments
 from ..reports.compare_report import compare_report, summary_markdown as _summary_table
+from ..io.config_tolerance import curve_option
 from .common import ARM_MODELS, cuff_wrench, model_from_config
+from .tolerance_extras import compare_exposure, compare_exposure_markdown
 
 __all__ = ["compare", "write_compare", "CompareResult", "TrialComparison", "CompareOutputs",
            "parse_arms", "summary_markdown", "DEFAULT_ARMS", "RMSE_COLUMNS", "SUMMARY_COLUMNS"]
@@ -159,6 +161,10 @@ class CompareResult:
     conditions: "object"
     tissue_stiffness_file: Optional[Path] = None
     input_paths: tuple = field(default_factory=tuple)
+    #: with a tolerance curve: the curve and every element's predicted exposure per trial
+    #: and arm (workflows/tolerance_extras.py, docs/tolerance.md); None without
+    tolerance: Optional[object] = None
+    exposure: "object" = None
 
     @property
     def labels(self) -> tuple:
@@ -186,7 +192,7 @@ def _with_tissue(cfg: Config, tissue_stiffness) -> Config:
 
 def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT_ARMS,
             tissue_stiffness=None, columns: Optional[dict] = None,
-            group: Optional[str] = None) -> CompareResult:
+            group: Optional[str] = None, tolerance=None) -> CompareResult:
     """Compare the arm models' predictions (rigid, compliant, coupled) with a sensorized-cuff experiment.
 
     Parameters
@@ -206,6 +212,9 @@ def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT
     group : str, optional
         TDMS and MAT trial tables: the group or struct holding the channels;
         default the config's ``load_cell.group``.
+    tolerance : ToleranceCurve or str, optional
+        Default the config's ``tolerance.curve``: also every element's predicted
+        exposure against that curve (``exposure``).
 
     Returns
     -------
@@ -276,10 +285,13 @@ def compare(config, manifest, *, arms: Union[str, Sequence[str], None] = DEFAULT
     inputs = [cfg.path, man.path] + [t.file for t in man.trials]
     if tissue_file is not None:
         inputs.append(tissue_file)
+    curve = curve_option(tolerance, cfg)
     return CompareResult(config=cfg, manifest=man, arms=arms, trials=trials, rmse=rmse_df,
                          summary=summary_df, loads=loads_df, conditions=cond_df,
                          tissue_stiffness_file=tissue_file,
-                         input_paths=tuple(p for p in inputs if p is not None))
+                         input_paths=tuple(p for p in inputs if p is not None),
+                         tolerance=curve, exposure=None if curve is None
+                         else compare_exposure(trials, models, curve))
 
 
 # --------------------------------------------------------------------------- tables
@@ -470,6 +482,8 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
         csv(result.summary, "summary.csv")
         csv(result.loads, "loads.csv")
         csv(result.conditions, "conditions.csv")
+        if result.exposure is not None:
+            csv(result.exposure, "exposure.csv")
         if figures:
             local, jobs = [], []
             if len(result.summary):
@@ -527,6 +541,8 @@ def write_compare(result: CompareResult, outdir, *, figures: bool = True,
             tissue_stiffness_file=result.tissue_stiffness_file, summary=result.summary,
             rmse_rows=_rmse_rows(result), figures=figures, fig_index=fig_index,
             bands_markdown=bands_markdown)
+        if result.exposure is not None:
+            report += compare_exposure_markdown(result.exposure, result.tolerance)
         (tmp / "report.md").write_text(report, encoding="utf-8")
         written.append(outdir / "report.md")
     return CompareOutputs(outdir=outdir, files=written)

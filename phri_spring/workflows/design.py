@@ -88,10 +88,25 @@ def prepare_study(study_path) -> tuple:
 
     study = load_study(study_path) if not isinstance(study_path, Study) else study_path
     base = load_config(study.config)
+    _check_tolerance(study, base)
     loads = load_set(study.loads, base.log_columns, group=base.log_group,
                      force_tol=study.merge_force_N, moment_tol=study.merge_moment_Nm)
     values, configs = build_designs(study, base)
     return study, base, loads, values, configs
+
+
+def _check_tolerance(study: Study, base) -> None:
+    """A study that names an objective defined only with a tolerance curve needs one."""
+    from ..errors import ConfigError
+    from ..objectives import OBJECTIVE_BY_NAME
+
+    if base.tolerance is not None:
+        return
+    for name in (*study.objectives, *(c.objective for c in study.constraints)):
+        if OBJECTIVE_BY_NAME[name].needs_tolerance:
+            raise ConfigError(f"objective {name!r} needs a pressure-time curve: add "
+                              f"tolerance: {{curve: NAME}} to the config {study.config} "
+                              f"(docs/tolerance.md)", file=study.path, key=name)
 
 
 def run_study(study_path, outdir, *, scheduler: Optional[str] = None,
@@ -193,7 +208,7 @@ def _assemble(study, base, values, configs, loads, done, outdir) -> StudyResult:
         if name not in cols and any(c.objective == name for c in study.constraints):
             cols[name] = np.concatenate([p[name] for p in parts])[order]
     for name in OBJECTIVES:
-        if name not in cols:
+        if name not in cols and name in parts[0]:    # (dose_max: only with a curve)
             cols[name] = np.concatenate([p[name] for p in parts])[order]
     nc = np.concatenate([p["not_converged_samples"] for p in parts])[order]
     peaks = np.concatenate([p["element_peak_pressure_kPa"] for p in parts])[order]

@@ -48,6 +48,9 @@ class LoadSet:
     files : tuple of Path
     tolerance : tuple of float
         (force [N], moment [N*m]) merge tolerance; (0, 0) for exact merging.
+    seconds : ndarray, shape (k,), or None
+        Time each row stands for [s]: the sum of its samples' steps t_n - t_(n-1) (0 for
+        the first sample of each log and for steps backwards), for the dose objective.
     """
 
     wrench_lc: np.ndarray
@@ -55,6 +58,7 @@ class LoadSet:
     n_samples: int
     files: tuple = ()
     tolerance: tuple = (0.0, 0.0)
+    seconds: Optional[np.ndarray] = None
 
     def digest(self) -> str:
         h = hashlib.sha256()
@@ -63,12 +67,23 @@ class LoadSet:
         return h.hexdigest()
 
 
-def _merge_rows(w: np.ndarray):
-    """(distinct rows in first-occurrence order, counts) of an (m, 6) array."""
+def _merge_rows(w: np.ndarray, dt: Optional[np.ndarray] = None):
+    """(distinct rows in first-occurrence order, counts, summed dt or None) of an (m, 6)
+    array and its samples' steps (m,)."""
     view = np.ascontiguousarray(w).view(np.dtype((np.void, w.dtype.itemsize * w.shape[1])))
-    _, first, counts = np.unique(view.ravel(), return_index=True, return_counts=True)
+    _, first, inverse, counts = np.unique(view.ravel(), return_index=True,
+                                          return_inverse=True, return_counts=True)
     order = np.argsort(first, kind="stable")
-    return w[first[order]], counts[order].astype(float)
+    seconds = None if dt is None else \
+        np.bincount(inverse.ravel(), weights=dt, minlength=len(first))[order]
+    return w[first[order]], counts[order].astype(float), seconds
+
+
+def _steps(t: np.ndarray) -> np.ndarray:
+    """Each sample's step t_n - t_(n-1) [s] of one log: 0 first, 0 backwards or NaN."""
+    dt = np.zeros(len(t))
+    dt[1:] = np.diff(np.asarray(t, dtype=float))
+    return np.where(dt > 0, dt, 0.0)
 
 
 def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
@@ -97,7 +112,9 @@ def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
     files = tuple(Path(f) for f in files)
     if not files:
         raise DataError("expected at least one wrench log", key="loads")
-    parts = [read_wrench_log(f, columns, group=group)[1] for f in files]
+    logs = [read_wrench_log(f, columns, group=group) for f in files]
+    parts = [w for _, w in logs]
+    dt = np.concatenate([_steps(t) for t, _ in logs])
     w = np.concatenate(parts) if len(parts) > 1 else parts[0]
     if len(w) == 0:
         raise DataError("the load set is empty; expected at least one sample", key="loads")
@@ -107,8 +124,9 @@ def load_set(files, columns: Optional[dict] = None, *, force_tol: float = 0.0,
         on = step > 0
         snap[:, on] = np.round(w[:, on] / step[on]) * step[on]
         w = snap
-    rows, counts = _merge_rows(np.asarray(w, dtype=float))
-    return LoadSet(rows, counts, int(len(w)), files, (float(force_tol), float(moment_tol)))
+    rows, counts, seconds = _merge_rows(np.asarray(w, dtype=float), dt)
+    return LoadSet(rows, counts, int(len(w)), files, (float(force_tol), float(moment_tol)),
+                   seconds)
 
 
 # --------------------------------------------------------------------------- objectives
@@ -134,9 +152,11 @@ def evaluate_design(cfg: Config, loads: LoadSet, arm: str) -> dict:
     pressure = np.multiply(sol.forces, model.inv_area_kpa, out=sol.forces)  # (k, n) kPa, in place
     solved = SolvedLoadSet(pressure, sol.contact, sol.u, model.geometry.points, w,
                            loads.n_samples, model.pain_threshold_kpa,
-                           _principal_stiffness(model, cfg))
+                           _principal_stiffness(model, cfg), loads.seconds, cfg.tolerance)
     out = {"not_converged_samples": n_bad}
     for obj in OBJECTIVE_TABLE:
+        if obj.needs_tolerance and cfg.tolerance is None:
+            continue       # no curve, no column (docs/tolerance.md)
         out[obj.name] = math.nan if n_bad and obj.uses_loads else obj.compute(solved)
     out["element_peak_pressure_kPa"] = np.full(model.n, np.nan) if n_bad else \
         pressure.max(axis=0)
@@ -175,7 +195,8 @@ def evaluate_batch(batch, shared) -> dict:
     rows = [evaluate_design(cfg, loads, arm) for _, cfg in batch]
     out = {"design": np.array([i for i, _ in batch], dtype=np.int64)}
     for name in OBJECTIVES:
-        out[name] = np.array([r[name] for r in rows], dtype=float)
+        if all(name in r for r in rows):
+            out[name] = np.array([r[name] for r in rows], dtype=float)
     out["not_converged_samples"] = np.array([r["not_converged_samples"] for r in rows],
                                             dtype=np.int64)
     out["element_peak_pressure_kPa"] = np.array([r["element_peak_pressure_kPa"]

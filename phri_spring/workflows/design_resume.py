@@ -52,6 +52,8 @@ def fingerprint(study: Study, base: Config, values: np.ndarray, loads: LoadSet, 
         except OSError:
             pass
     h.update(loads.digest().encode())
+    if base.tolerance is not None and loads.seconds is not None:
+        h.update(np.ascontiguousarray(loads.seconds).tobytes())   # the dose depends on them
     return h.hexdigest()
 
 

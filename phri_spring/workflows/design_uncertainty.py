@@ -73,13 +73,16 @@ def study_uncertainty(cfg: Config, loads, arm: str, spec, objectives) -> dict:
     noisy = bool(inputs.noise_sd.any())
     if noisy:   # noise is per sample: expand the merged rows back to every sample
         full = np.repeat(loads.wrench_lc, loads.weights.astype(np.int64), axis=0)
+        # each sample keeps its share of its merged row's time (the dose objective)
+        seconds = None if loads.seconds is None else \
+            np.repeat(loads.seconds / loads.weights, loads.weights.astype(np.int64))
     vals, peaks = [], []
     for d, c in enumerate(cfgs):
         ls = loads
         if noisy:
             rng = np.random.default_rng([int(spec.seed), 1, d])
             w = full + rng.standard_normal(full.shape) * inputs.noise_sd
-            ls = LoadSet(w, np.ones(len(w)), len(w))
+            ls = LoadSet(w, np.ones(len(w)), len(w), seconds=seconds)
         v, p = _objectives_at(c, ls, arm, objectives)
         vals.append(v)
         peaks.append(p)

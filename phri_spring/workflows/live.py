@@ -42,7 +42,9 @@ from ..io.live_outputs import LiveTable, LslMarkers, LslOutlet
 from ..io.live_sources import LiveSource
 from ..io.logs import table_format
 from ..physics.solver import Solver
+from ..io.config_tolerance import curve_option
 from .common import cuff_wrench, model_from_config
+from .tolerance_extras import LiveDose
 from .simulate import (Baseline, _baseline_forces, _extra_arrow_types, parse_baseline,
                        per_sample_extras)
 
@@ -122,6 +124,10 @@ class LiveSummary:
     max_ratio_time: float = math.nan
     max_ratio_element: str = ""
     alarms: int = 0
+    #: with a tolerance curve: every element's exposure (physics.tolerance.Exposure) and
+    #: how many times the dose alarm was raised (docs/tolerance.md)
+    exposure: Optional[object] = None
+    dose_alarms: int = 0
     output: Optional[Path] = None
     #: 'end' of the stream, 'duration', 'max-samples', 'signal'
     stopped_by: str = "end"
@@ -166,6 +172,18 @@ class _Alarm:
                 self.on = False
                 return "off"
         return None
+
+
+def check_dose_alarm(curve, dose_alarm):
+    """The curve, after checking that a dose alarm has one and a positive level."""
+    if dose_alarm is None:
+        return curve
+    if not (math.isfinite(dose_alarm) and dose_alarm > 0):
+        raise UsageError(f"expected a positive dose, got {dose_alarm!r}", key="--dose-alarm")
+    if curve is None:
+        raise UsageError("a dose needs a pressure-time curve: give --tolerance NAME or the "
+                         "config's tolerance.curve", key="--dose-alarm")
+    return curve
 
 
 def check_alarm_settings(alarm, clear, hold) -> None:
@@ -217,6 +235,11 @@ class LiveRun:
         A prebuilt model of this config and arm.
     cache_dir : path, optional
         ``coupled`` only: where the built-in FE is cached.
+    tolerance : ToleranceCurve or str, optional
+        Default the config's ``tolerance.curve``: follow every element's dose against
+        it (the table gets ``dose_max`` and ``dose_element``; docs/tolerance.md).
+    dose_alarm : float, optional
+        Dose [-] that raises the dose alarm (needs a curve; hysteresis as ``alarm``).
 
     Raises
     ------
@@ -229,7 +252,8 @@ class LiveRun:
                  lsl_out: Optional[str] = None, alarm: Optional[float] = None,
                  alarm_clear: Optional[float] = None, alarm_hold: float = ALARM_HOLD_S,
                  duration: Optional[float] = None, max_samples: Optional[int] = None,
-                 notify: Optional[Callable[[str], None]] = None, model=None, cache_dir=None):
+                 notify: Optional[Callable[[str], None]] = None, model=None, cache_dir=None,
+                 tolerance=None, dose_alarm: Optional[float] = None):
         self.cfg = config
         self.source = source
         self.arm = arm
@@ -250,6 +274,9 @@ class LiveRun:
                                                                        cache_dir=cache_dir)
         self.labels = tuple(self.model.labels)
         self._alarm = _Alarm(alarm, alarm_clear, alarm_hold)
+        curve = check_dose_alarm(curve_option(tolerance, config), dose_alarm)
+        self._dose = None if curve is None else LiveDose(
+            self.model, curve, _Alarm(dose_alarm, None, alarm_hold))
         self._observers: List[Callable[[LiveSnapshot], None]] = []
         self._stop_signal: Optional[int] = None
         self._stop_event = threading.Event()
@@ -289,7 +316,8 @@ class LiveRun:
             self._events(None)
             if self.output is not None:
                 table = LiveTable(self.output, self.out_fmt, self.labels,
-                                  _extra_arrow_types(), decimals=self.decimals).open()
+                                  _extra_arrow_types(tolerance=self._dose is not None),
+                                  decimals=self.decimals).open()
             if self.lsl_out is not None:
                 outlet = LslOutlet(self.lsl_out, self.labels, self.source.nominal_rate)
                 markers = LslMarkers(self.lsl_out)
@@ -425,6 +453,8 @@ class LiveRun:
             self.notify(line)
             if self._markers is not None:
                 self._markers.push(f"alarm {change}: ratio {ratio:.4f}", t)
+        if self._dose is not None:
+            self._dose_sample(t, f_abs if conv else np.full(len(f_abs), np.nan))
         if self._outlet is not None:
             self._outlet.push([*forces.tolist(), ratio, float(contacts)], t)
         self._rate.tick()
@@ -440,6 +470,15 @@ class LiveRun:
         if len(b["time"]) >= _BATCH_ROWS:
             self._flush()
 
+    def _dose_sample(self, t: float, f_abs) -> None:
+        dose, j, change = self._dose.update(t, f_abs)
+        if change == "on":
+            line = (f"DOSE ALARM: dose {dose:.3g} >= {self._dose.alarm.threshold:g} against "
+                    f"{self._dose.tally.curve.name} at t = {t:.3f} s (element {self.labels[j]})")
+            self.notify(line)
+            if self._markers is not None:
+                self._markers.push(f"dose alarm on: {dose:.4g}", t)
+
     def _flush(self) -> None:
         """Write the batch of processed rows to the table."""
         self._last_flush = time.monotonic()
@@ -450,7 +489,11 @@ class LiveRun:
             f_abs = np.array(b["abs"])
             extras, _ = per_sample_extras(self.model, f_abs, np.array(b["contact"]),
                                           np.array(b["its"]), np.array(b["conv"]))
+            if self._dose is not None:
+                extras.update(self._dose.columns())
             self._table.write(np.array(b["time"]), np.array(b["forces"]), extras)
+        if self._dose is not None:
+            self._dose.rows.clear()       # (written above, or no table)
         for rows in b.values():
             rows.clear()
 
@@ -471,6 +514,8 @@ class LiveRun:
         st = self.source.stats
         summary.lost, summary.malformed, summary.gaps = st.lost, st.malformed, list(st.gaps)
         summary.alarms = self._alarm.count
+        if self._dose is not None:
+            summary.exposure, summary.dose_alarms = self._dose.exposure, self._dose.alarm.count
         table = self._table
         if table is not None:
             if failed:

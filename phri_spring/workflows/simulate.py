@@ -29,6 +29,7 @@ from ..errors import ConvergenceError, DataError, UsageError
 from ..io.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
 from ..io.columns import LOG_COLUMNS, OPTIONAL_LOG_COLUMNS
+from ..io.config_tolerance import curve_option
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
 from ..physics.load_path import ChunkedShares
@@ -40,6 +41,8 @@ from ..io.memory_budget import plan_stream
 from .plotting import MaxPool
 from .no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, NoAnswerTally, no_equilibrium_extras
 from .shear_extras import element_loads, has_patch_moments, shear_columns, shear_extras
+from .tolerance_extras import (TOLERANCE_COLUMN_TYPES, ExposureTally, exposure_table_path,
+                               write_exposure_table)
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
@@ -205,7 +208,8 @@ def _as_config(config) -> Config:
 
 def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
              baseline: Union[str, Baseline, None] = "none",
-             model=None, shear: bool = False, activation=None) -> SimulationResult:
+             model=None, shear: bool = False, activation=None,
+             tolerance=None) -> SimulationResult:
     """Contact forces for every sample of a wrench log held in memory.
 
     Parameters
@@ -226,6 +230,8 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
     shear : bool
         Add the tangential (shear) force on the arm of every element to ``extras``:
         ``{label}_shear_axial_N`` and ``{label}_shear_circumferential_N`` [N].
+    tolerance : ToleranceCurve or str, optional
+        Add ``dose_max`` and ``dose_element`` to ``extras`` (docs/tolerance.md).
 
     Returns
     -------
@@ -271,6 +277,8 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                       shear, t, activation)
     extras, idx = ch.extras()
     sol = ch.solution
+    if tolerance is not None:
+        extras.update(ExposureTally(model, tolerance).add(t, sol.forces))
     return SimulationResult(time=t, labels=tuple(model.labels), forces=ch.forces,
                             absolute_forces=sol.forces, baseline_forces=f_base,
                             contact=sol.contact, iterations=sol.iterations,
@@ -346,6 +354,10 @@ class SimulateSummary:
     #: with friction: the worst sample without an answer, (reason, time [s], shortfall,
     #: its unit "N" or "N*m"; NaN and "" when not converged), or None
     worst_no_answer: Optional[tuple] = None
+    #: with a tolerance curve: every element's exposure (physics.tolerance.Exposure) and
+    #: the per-element table written (docs/tolerance.md); None without
+    exposure: Optional[object] = None
+    exposure_table: Optional[Path] = None
 
 
 @dataclass(frozen=True)
@@ -457,7 +469,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
                   baseline: Union[str, Baseline, None] = "none", columns: Optional[dict] = None,
                   group: Optional[str] = None,
                   chunk_rows: int = 65536, decimals: Optional[int] = 6, shear: bool = False,
-                  cache_dir=None,
+                  cache_dir=None, tolerance=None,
                   progress: Optional[Callable[[int, Optional[int]], None]] = None,
                   on_chunk: Optional[Callable[[np.ndarray, np.ndarray, np.ndarray], None]] = None
                   ) -> SimulateSummary:
@@ -487,6 +499,9 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         always stores full double precision.
     cache_dir : path, optional
         ``coupled`` only: where the built-in FE's surface stiffness is cached.
+    tolerance : ToleranceCurve or str, optional
+        Default ``cfg.tolerance``: add the dose columns and write every element's
+        exposure to :func:`~.tolerance_extras.exposure_table_path` (docs/tolerance.md).
     progress : callable(done, total), optional
         Called after each chunk; ``total`` may be None.
     on_chunk : callable(time, absolute_forces, peak_pressure_kpa), optional
@@ -503,6 +518,10 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     """
     run = open_log_run(config, log, output, baseline=baseline, columns=columns, group=group)
     cfg, base = run.cfg, run.baseline
+    tolerance = curve_option(tolerance, cfg)
+    if tolerance is not None:
+        check_output_path(exposure_table_path(output), [log, cfg.path, output,
+                                                        *cfg.stiffness_files])
     # rows per chunk: the hint, capped so that a fine mesh's chunk stays about 32 MB, and
     # fewer when memory is short; a run that cannot fit is refused here, before any output
     rows = plan_stream(cfg, arm, chunk_rows, output_format=run.out_fmt, shear=shear,
@@ -523,13 +542,19 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         chunks = prefetch(chunks)
     law = model.law
     tally = NoAnswerTally(arm_radius(model.geometry))
+    dose = None if tolerance is None else ExposureTally(model, tolerance,
+                                                        binned=isinstance(on_chunk, MaxPool))
     try:
         summary = _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
-                          tally)
+                          tally, dose)
         reasons, worst = tally.result()
+        table = None if dose is None else write_exposure_table(
+            exposure_table_path(output), model.labels, dose.exposure)
         return dataclasses.replace(summary, tissue_law=law.name if law is not None else "",
                                    friction_coefficient=model.friction_coefficient,
-                                   no_answer_reasons=reasons, worst_no_answer=worst)
+                                   no_answer_reasons=reasons, worst_no_answer=worst,
+                                   exposure=None if dose is None else dose.exposure,
+                                   exposure_table=table)
     finally:
         chunks.close()  # stops the reader thread (or the generator) on an early exit
 
@@ -582,7 +607,7 @@ class SummaryAccumulator:
 
 
 def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
-            tally=None):
+            tally=None, dose=None):
     cfg = run.cfg
     acc = SummaryAccumulator(model.labels)
     cache = FactorCache()  # one run, one model: factorisations reused across chunks
@@ -590,8 +615,12 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     def extras_job(number, time, chunk):
         # runs on a writer thread, overlapping the solving of the next chunks
         def compute():
+            # first, so that a failure below cannot leave the next chunks waiting for it
+            dosed = {} if dose is None else dose.add_in_order(number, time,
+                                                              chunk.solution.forces)
             acc.add_load_path(number, model, chunk.solution)
             extras, idx = chunk.extras()
+            extras.update(dosed)
             acc.add_peak(number, time, extras, idx)
             if tally is not None:
                 tally.add(number, time, extras)
@@ -600,7 +629,8 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
 
     with run.writer(model.labels, _extra_arrow_types(model.labels if shear else (),
                                                      has_patch_moments(model),
-                                                     model.friction_coefficient is not None),
+                                                     model.friction_coefficient is not None,
+                                                     dose is not None),
                     decimals=decimals) as writer:
         for number, (ch, W) in enumerate(chunks):
             if ch.activation is not None and number == 0:   # the log has muscle activation
@@ -619,7 +649,8 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     return acc.summary(run.output, f_base)
 
 
-def _extra_arrow_types(shear_labels=(), moments: bool = False, friction: bool = False) -> dict:
+def _extra_arrow_types(shear_labels=(), moments: bool = False, friction: bool = False,
+                       tolerance: bool = False) -> dict:
     import pyarrow as pa
 
     types = {"int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
@@ -628,4 +659,6 @@ def _extra_arrow_types(shear_labels=(), moments: bool = False, friction: bool = 
     out.update({name: pa.float64() for name in shear_columns(shear_labels, moments)})
     if friction:   # why a sample has no answer (physics/no_equilibrium.py)
         out.update({name: types[kind] for name, kind in NO_EQUILIBRIUM_COLUMN_TYPES})
+    if tolerance:  # the dose against a tolerance curve (docs/tolerance.md)
+        out.update({name: types[kind] for name, kind in TOLERANCE_COLUMN_TYPES})
     return out
