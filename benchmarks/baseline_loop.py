@@ -1,7 +1,7 @@
 """The baseline of the benchmarks: `phri simulate` done the plain way.
 
 pandas reads the log, a per-sample Python loop solves each sample with
-np.linalg.solve in an active-set loop (phri_spring.physics.solver.solve_per_sample:
+np.linalg.solve in an active-set loop (phri_spring.physics.contact.solver.solve_per_sample:
 same method and stopping rule, no vectorisation, caching or warm start), and
 pandas writes the forces. Usage:
 
@@ -13,7 +13,7 @@ import sys
 import pandas as pd
 
 from phri_spring.io.config import load_config
-from phri_spring.physics.solver import solve_per_sample
+from phri_spring.physics.contact.solver import solve_per_sample
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 
 

@@ -7,7 +7,7 @@ a run and what it means)::
     OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py --levels 2 --forces 11.1
     OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py --through centre
 
-The reference (:mod:`phri_spring.physics.fe_contact`) is the coupled model's own tissue FE
+The reference (:mod:`phri_spring.physics.continuum.contact_reference`) is the coupled model's own tissue FE
 with every skin node under a plate a unilateral contact of its own, frictionless or with
 Coulomb friction along a loading path, the cuff, its springs and the strap preload (delta,
 W_pre) taken from the coupled model. Loads: the paper's horizontal (load-cell z) and
@@ -58,9 +58,9 @@ sys.path.insert(0, str(ROOT))
 
 from phri_spring.errors import ConvergenceError, PhriError  # noqa: E402
 from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
-from phri_spring.physics import fe_contact as fc  # noqa: E402
-from phri_spring.physics.fe_mesh import DEFAULT_LEVEL  # noqa: E402
-from phri_spring.physics.solver import solve  # noqa: E402
+from phri_spring.physics.continuum import contact_reference as fc  # noqa: E402
+from phri_spring.physics.continuum.mesh import DEFAULT_LEVEL  # noqa: E402
+from phri_spring.physics.contact.solver import solve  # noqa: E402
 from phri_spring.workflows.common import (continuum_modulus, coupled_model,  # noqa: E402
                                           cuff_wrench, model_from_config)
 

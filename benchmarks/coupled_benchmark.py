@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 def main() -> None:
     from phri_spring.io.config import config_from_dict, load_yaml
-    from phri_spring.physics.solver import FactorCache, Solver, solve
+    from phri_spring.physics.contact.solver import FactorCache, Solver, solve
     from phri_spring.synthetic.wrench import smooth_random_log
     from phri_spring.workflows.common import cuff_wrench, model_from_config
 

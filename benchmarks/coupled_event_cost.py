@@ -37,7 +37,7 @@ def main():
     root = args.root.resolve()
     sys.path.insert(0, str(root))
     from phri_spring.io.config import load_config
-    from phri_spring.physics.solver import solve
+    from phri_spring.physics.contact.solver import solve
     from phri_spring.workflows.common import cuff_wrench, model_from_config
 
     log = pd.read_csv(args.log or root / "examples" / "wrench_log.csv", comment="#")[COLS]

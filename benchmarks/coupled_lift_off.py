@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.physics.solver import FactorCache, solve  # noqa: E402
+from phri_spring.physics.contact.solver import FactorCache, solve  # noqa: E402
 from phri_spring.workflows.common import cuff_wrench, model_from_config  # noqa: E402
 
 COLS = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]

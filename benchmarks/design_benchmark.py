@@ -76,7 +76,7 @@ def make_inputs(folder: Path, n_samples: int, levels: int) -> Path:
 
 
 def run_inprocess(study: Path, out: Path, workers: int):
-    from phri_spring.workflows.design import run_study
+    from phri_spring.workflows.design.study import run_study
 
     shutil.rmtree(out, ignore_errors=True)
     t0 = time.perf_counter()
@@ -100,8 +100,8 @@ def run_cli(study: Path, out: Path) -> float:
 def tolerance_cost(study: Path, log: Path, force_tol: float, moment_tol: float,
                    n_designs: int = 5) -> dict:
     """Rows kept and the largest relative change of each objective, tolerance vs exact."""
-    from phri_spring.io.study import OBJECTIVES
-    from phri_spring.workflows.design import evaluate_design, load_set, prepare_study
+    from phri_spring.io.config.study import OBJECTIVES
+    from phri_spring.workflows.design.study import evaluate_design, load_set, prepare_study
 
     st, base, _loads, _values, cfgs = prepare_study(study)
     exact = load_set([log], base.log_columns)

@@ -40,8 +40,8 @@ sys.path.insert(0, str(ROOT / "tests"))
 
 from reference_layer import kappa_integral_equation  # noqa: E402  (independent of the FE)
 
-from phri_spring.physics import fe_tissue as fe  # noqa: E402
-from phri_spring.physics.geometry import cuff_geometry  # noqa: E402
+from phri_spring.physics.continuum import tissue as fe  # noqa: E402
+from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
 
 WRENCHES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
@@ -86,8 +86,8 @@ def maxdiff_pct(f, ref):
 _TIME_BUILD = """
 import os, sys, time, tempfile
 sys.path.insert(0, {root!r})
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.io.surface_stiffness import load_or_build
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.io.cache.surface_stiffness import load_or_build
 g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
 t0 = time.perf_counter()
 K, info = load_or_build(g, {t}, 1.0e5, {nu}, cache_dir={cache!r})
@@ -289,7 +289,7 @@ def write_report(out, quick, levels, shipped, ref_level, ref_lf, conv, val, vari
     L.append("## 4. Build and reload time (Harmony geometry, shipped level, nu = 0.45)")
     L.append("")
     L.append("Each run is a fresh Python process calling "
-             "`phri_spring.io.surface_stiffness.load_or_build` with an empty cache folder "
+             "`phri_spring.io.cache.surface_stiffness.load_or_build` with an empty cache folder "
              "(first build), then again (cached reload); the time of the call only.")
     L.append("")
     L.append("| t [mm] | first build: median [s] | runs [s] | cached reload: median [s] |")

@@ -5,7 +5,7 @@ Rigid-cuff stiffness magnitudes diag(T^T K T) (translations [N/mm], rotations
 levels 1-3 and nu in {0.30, 0.45, 0.49, 0.499}, and the change from level 2 to 3 in %.
 A converged discretisation changes little between the two finest levels; a locking
 one stays too stiff and converges slowly from above. This is why the built-in FE
-refuses nu > 0.45 (``phri_spring.physics.fe_mesh.MAX_POISSON_RATIO``); the study calls
+refuses nu > 0.45 (``phri_spring.physics.continuum.mesh.MAX_POISSON_RATIO``); the study calls
 the FE's unit-modulus builder directly, past that check, to show what it would give.
 
 Run from the repository root (about 2 minutes on 2 cores)::
@@ -24,8 +24,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from phri_spring.physics import fe_tissue as fe  # noqa: E402
-from phri_spring.physics.geometry import cuff_geometry  # noqa: E402
+from phri_spring.physics.continuum import tissue as fe  # noqa: E402
+from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
 
 E = 3.0e4
 THICKNESS = 0.025

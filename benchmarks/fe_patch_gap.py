@@ -59,9 +59,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.physics import fe_tissue as fe  # noqa: E402
-from phri_spring.physics.geometry import cuff_geometry  # noqa: E402
-from phri_spring.physics.solver import solve, solve_segments  # noqa: E402
+from phri_spring.physics.continuum import tissue as fe  # noqa: E402
+from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
+from phri_spring.physics.contact.solver import solve, solve_segments  # noqa: E402
 from phri_spring.workflows import common  # noqa: E402
 
 PRESETS = ("human_upper_arm", "harmony_upper_arm")

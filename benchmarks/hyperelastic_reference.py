@@ -6,7 +6,7 @@ means)::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/hyperelastic_reference.py --levels 2,3,4
 
-The FE is :mod:`phri_spring.physics.fe_hyper` (felupe, extra ``hyper``) on the linear FE's
+The FE is :mod:`phri_spring.physics.hyperelastic.fe` (felupe, extra ``hyper``) on the linear FE's
 mesh. Per mesh level:
 
 a. cross-check at small load: 1 N along and 0.1 N*m about each cuff axis, no preload,
@@ -51,9 +51,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
-from phri_spring.physics import fe_hyper as fh  # noqa: E402
-from phri_spring.physics import fe_hyper_mesh as fh_mesh  # noqa: E402
-from phri_spring.physics.fe_reference import direct_rigid_cuff_response  # noqa: E402
+from phri_spring.physics.hyperelastic import fe as fh  # noqa: E402
+from phri_spring.physics.hyperelastic import mesh as fh_mesh  # noqa: E402
+from phri_spring.physics.continuum.reference import direct_rigid_cuff_response  # noqa: E402
 from phri_spring.workflows.common import continuum_modulus, coupled_model  # noqa: E402
 
 FORCES = (11.1, 33.4, 55.6)      # N, the paper's load levels (contact_reference.py)

@@ -48,11 +48,11 @@ import yaml  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from phri_spring.io import hyper_reduction as store  # noqa: E402
+from phri_spring.io.cache import hyper_reduction as store  # noqa: E402
 from phri_spring.io.config import config_from_dict  # noqa: E402
-from phri_spring.io.yaml_loader import _StrictSafeLoader  # noqa: E402
-from phri_spring.physics.coupled_hyper import HyperCoupledModel  # noqa: E402
-from phri_spring.physics.solver import Solver, solve  # noqa: E402
+from phri_spring.io.config.yaml_loader import _StrictSafeLoader  # noqa: E402
+from phri_spring.physics.hyperelastic.coupled import HyperCoupledModel  # noqa: E402
+from phri_spring.physics.contact.solver import Solver, solve  # noqa: E402
 from phri_spring.synthetic.wrench import smooth_random_log  # noqa: E402
 from phri_spring.workflows.common import _linear_coupled_model, continuum_modulus  # noqa: E402
 from phri_spring.workflows.hyper_arm import strap_settings  # noqa: E402

@@ -27,8 +27,8 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.io.logs import read_wrench_log  # noqa: E402
-from phri_spring.physics.load_path import ChunkedShares, force_parts  # noqa: E402
-from phri_spring.physics.solver import FactorCache, solve  # noqa: E402
+from phri_spring.physics.contact.load_path import ChunkedShares, force_parts  # noqa: E402
+from phri_spring.physics.contact.solver import FactorCache, solve  # noqa: E402
 from phri_spring.workflows.common import cuff_wrench, model_from_config  # noqa: E402
 
 CHUNK = 36_000

@@ -8,7 +8,7 @@ solved by ``Solver`` (one call per sample, the path carried from call to call, a
 control loop does), ``--repeats`` times from the strap's state; a sample's time is its
 least over the repeats (the machine's noise only adds). The first sample (it builds the
 model's interface arrays) is left out. Prints the share of samples without an answer by
-reason (``phri_spring.physics.no_equilibrium``) and the median, 99th percentile and
+reason (``phri_spring.physics.contact.no_equilibrium``) and the median, 99th percentile and
 largest sample time.
 """
 
@@ -27,8 +27,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.physics.no_equilibrium import REASONS, explain  # noqa: E402
-from phri_spring.physics.solver import Solver  # noqa: E402
+from phri_spring.physics.contact.no_equilibrium import REASONS, explain  # noqa: E402
+from phri_spring.physics.contact.solver import Solver  # noqa: E402
 from phri_spring.workflows.common import cuff_wrench, model_from_config  # noqa: E402
 
 COLS = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]

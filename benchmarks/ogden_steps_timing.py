@@ -10,7 +10,7 @@ number of load steps per 10 mm, and the beta it finds. Run from the repository r
 import argparse
 import time
 
-from phri_spring.physics.fe_punch_ogden import punch_stiffening
+from phri_spring.physics.hyperelastic.punch_ogden import punch_stiffening
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

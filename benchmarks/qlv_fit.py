@@ -20,8 +20,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
-from phri_spring.physics.indentation_qlv import fit_qlv  # noqa: E402
-from phri_spring.physics.indentation_qlv_window import qlv_window  # noqa: E402
+from phri_spring.physics.indentation.qlv import fit_qlv  # noqa: E402
+from phri_spring.physics.indentation.qlv_window import qlv_window  # noqa: E402
 from phri_spring.synthetic.indenter_qlv import synth_qlv_trial  # noqa: E402
 
 K, G, TAU = 4000.0, np.array([0.30, 0.20]), np.array([0.4, 5.0])

@@ -138,8 +138,8 @@ def median_time(fn, repeats):
 
 def fine_model(rows: int, angles: int):
     """A Harmony-like cuff (245 deg wrap, 75 mm long) cut into rows x angles elements."""
-    from phri_spring.physics.geometry import cuff_geometry
-    from phri_spring.physics.model import build_model, tissue_element_stiffness
+    from phri_spring.physics.cuff.geometry import cuff_geometry
+    from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
 
     span = 245.0
     step = span / angles
@@ -348,7 +348,7 @@ def main():
     cpu = pin_one_cpu()
     from phri_spring.io.config import load_config
     from phri_spring.io.logs import read_wrench_log
-    from phri_spring.physics.solver import FactorCache, Solver, solve, solve_per_sample
+    from phri_spring.physics.contact.solver import FactorCache, Solver, solve, solve_per_sample
     from phri_spring.workflows.common import cuff_wrench, model_from_config
 
     cfg = load_config(CONFIG)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from phri_spring.physics.scan_sections import scan_element_geometry
+from phri_spring.physics.limb.scan_sections import scan_element_geometry
 
 R = 0.045
 ROWS = np.array([-0.025, 0.0, 0.025])

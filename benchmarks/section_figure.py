@@ -25,7 +25,7 @@ def main(argv) -> int:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     if skip:
-        import phri_spring.workflows.section_plot as sp
+        import phri_spring.workflows.plots.section as sp
 
         sp.write_section_plot = lambda *args, **kwargs: None
     from phri_cli.main import phri

@@ -24,8 +24,8 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
 from phri_spring.io.config import config_from_dict  # noqa: E402
-from phri_spring.io.yaml_loader import load_yaml  # noqa: E402
-from phri_spring.physics.solver import solve  # noqa: E402
+from phri_spring.io.config.yaml_loader import load_yaml  # noqa: E402
+from phri_spring.physics.contact.solver import solve  # noqa: E402
 from phri_spring.workflows.common import cuff_wrench, model_from_config  # noqa: E402
 
 RADIUS = 0.045

@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.workflows.stiffness import interface_stiffness_report  # noqa: E402
+from phri_spring.workflows.stiffness.matrix import interface_stiffness_report  # noqa: E402
 
 PRESETS = ("harmony_upper_arm.yaml", "human_upper_arm.yaml")
 ARMS = ("compliant", "coupled")

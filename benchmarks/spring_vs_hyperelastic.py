@@ -50,9 +50,9 @@ import yaml  # noqa: E402
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from phri_spring.io import yaml_loader  # noqa: E402
+from phri_spring.io.config import yaml_loader  # noqa: E402
 from phri_spring.io.config import config_from_dict  # noqa: E402
-from phri_spring.physics.solver import solve  # noqa: E402
+from phri_spring.physics.contact.solver import solve  # noqa: E402
 from phri_spring.workflows.common import model_from_config  # noqa: E402
 
 CONFIG = ROOT / "configs" / "human_upper_arm.yaml"
@@ -129,15 +129,15 @@ def fmt(x, nd=2):
 
 
 def punch_curves(radii, alphas, depth_max):
-    """Flat bonded punches on the preset's layer (phri_spring.physics.fe_punch_ogden).
+    """Flat bonded punches on the preset's layer (phri_spring.physics.hyperelastic.punch_ogden).
 
     Ogden alpha = 2 is the neo-Hookean solid of the reference (same mu, K). Returns a
     list of dicts: radius, alpha, status, k0 (slope at contact), beta fitted on 0-5 mm
     and on 0-depth_max (or to the deepest converged step), secants / k0 there.
     """
-    from phri_spring.physics.fe_punch_ogden import fit_stiffening as fit_beta
-    from phri_spring.physics.fe_punch_ogden import punch_curve
-    from phri_spring.physics.fe_punch_ogden import slope_at_contact as small_strain_slope
+    from phri_spring.physics.hyperelastic.punch_ogden import fit_stiffening as fit_beta
+    from phri_spring.physics.hyperelastic.punch_ogden import punch_curve
+    from phri_spring.physics.hyperelastic.punch_ogden import slope_at_contact as small_strain_slope
 
     h, E, nu = 0.025, 3.0e4, 0.45
     rows = []
@@ -160,7 +160,7 @@ def punch_curves(radii, alphas, depth_max):
 
 def fit_exp_rate(depth, force, k0, dmax):
     """beta of F = (k0/beta)(exp(beta d) - 1) on 0..dmax, k0 held (same fit as the example)."""
-    from phri_spring.physics.fe_punch_ogden import fit_stiffening as fit_beta
+    from phri_spring.physics.hyperelastic.punch_ogden import fit_stiffening as fit_beta
     return fit_beta(np.asarray(depth), np.asarray(force), k0, dmax)[0]
 
 

@@ -35,9 +35,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.io.yaml_loader import _StrictSafeLoader  # noqa: E402
-from phri_spring.physics import spring_newton  # noqa: E402
-from phri_spring.physics.solver import solve  # noqa: E402
+from phri_spring.io.config.yaml_loader import _StrictSafeLoader  # noqa: E402
+from phri_spring.physics.springs import newton as spring_newton  # noqa: E402
+from phri_spring.physics.contact.solver import solve  # noqa: E402
 from phri_spring.synthetic.wrench import smooth_random_log  # noqa: E402
 from phri_spring.workflows.common import model_from_config  # noqa: E402
 

@@ -75,7 +75,7 @@ def handle_signals() -> None:
     leaving a temporary file behind. A SIGHUP already ignored (``nohup``) stays
     ignored. Call from the main thread, before the command runs.
     """
-    from phri_spring.io.atomic import add_commit_check
+    from phri_spring.io.outputs.atomic import add_commit_check
 
     for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
         if sig != signal.SIGINT and signal.getsignal(sig) == signal.SIG_IGN:

@@ -70,13 +70,13 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
       phri compare configs/harmony_upper_arm.yaml \\
           examples/experiment/manifest.yaml -o out/compare
     """
-    from phri_spring.io.atomic import check_output_path
-    from phri_spring.workflows.compare import (compare as run_compare, parse_arms,
+    from phri_spring.io.outputs.atomic import check_output_path
+    from phri_spring.workflows.compare.run import (compare as run_compare, parse_arms,
                                                summary_markdown, write_compare)
 
     arm_list = parse_arms(arms)
     if tolerance is not None:
-        from phri_spring.io.config_tolerance import curve_option
+        from phri_spring.io.config.tolerance import curve_option
 
         curve_option(tolerance)       # an unknown name is refused before anything is read
     check_output_path(output, [config, manifest, tissue_stiffness], option="-o/--output",
@@ -84,8 +84,8 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
     result = run_compare(config, manifest, arms=arm_list, tissue_stiffness=tissue_stiffness,
                          group=group, tolerance=tolerance)
     if uncertainty is not None:  # computed before anything is written: a failure leaves nothing
-        from phri_spring.io.memory_budget import check_draws
-        from phri_spring.workflows.compare_bands import compare_bands, write_compare_bands
+        from phri_spring.io.memory.budget import check_draws
+        from phri_spring.workflows.compare.bands import compare_bands, write_compare_bands
 
         # every draw's forces at every condition are held at once (models one at a time)
         check_draws(result.config, "coupled" if "coupled" in result.arms else "compliant",
@@ -98,7 +98,7 @@ def compare(config, manifest, output, arms, tissue_stiffness, group, no_figures,
              quiet)
     section = ""
     if uncertainty is not None:
-        from phri_spring.workflows.compare_bands import bands_report_section
+        from phri_spring.workflows.compare.bands import bands_report_section
 
         section = bands_report_section(result, bands[1], draws=uncertainty, seed=seed,
                                        figures=not no_figures)

@@ -66,7 +66,7 @@ def design(study, output, scheduler, workers, no_figures, dpi, progress, quiet):
     Example:
       phri design examples/design/study.yaml -o out/design
     """
-    from phri_spring.workflows.design import run_study
+    from phri_spring.workflows.design.study import run_study
 
     study = _checked_study(study, scheduler, workers)
     bar = _DesignProgress("design", progress_enabled(progress))
@@ -98,9 +98,9 @@ def _checked_study(path, scheduler, workers):
     before any design is made or anything written."""
     from phri_spring.io.config import load_config
     from phri_spring.io.logs import count_rows
-    from phri_spring.io.study import load_study
-    from phri_spring.workflows.executors import default_workers, parse_scheduler
-    from phri_spring.io.memory_budget import check_design
+    from phri_spring.io.config.study import load_study
+    from phri_spring.workflows.design.executors import default_workers, parse_scheduler
+    from phri_spring.io.memory.budget import check_design
 
     study = load_study(path)
     base = load_config(study.config)

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import click
 
-from phri_spring.workflows.fit_laws import ELASTIC_PARTS, FIT_LAWS
+from phri_spring.workflows.fit.laws import ELASTIC_PARTS, FIT_LAWS
 
 from ._common import info, warn
 
@@ -96,7 +96,7 @@ def fit_stiffness(ctx, input_path, output, zero_window, onset_threshold, displac
     """
     from click.core import ParameterSource
 
-    from phri_spring.workflows.fit_stiffness import (check_fit_outputs, fit_stiffness as run,
+    from phri_spring.workflows.fit.stiffness import (check_fit_outputs, fit_stiffness as run,
                                                      write_fit)
 
     if law == "qlv" and ctx.get_parameter_source("max_trial_spread") \

@@ -97,12 +97,12 @@ def live(config, source, arm, output, lsl_out, dashboard, baseline, alarm, alarm
     base = parse_baseline(baseline)
     check_alarm_settings(alarm, alarm_clear, alarm_hold)
     if tolerance is not None:
-        from phri_spring.io.config_tolerance import curve_option
+        from phri_spring.io.config.tolerance import curve_option
 
         curve_option(tolerance)          # an unknown name is refused before anything opens
     dash = None
     if dashboard is not None:
-        from phri_spring.io.live_dashboard import LiveDashboard, parse_address
+        from phri_spring.io.live.dashboard import LiveDashboard, parse_address
 
         dash = LiveDashboard(*parse_address(dashboard))       # bound now: a port in use fails here
     try:
@@ -120,7 +120,7 @@ def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, dura
           progress, quiet, dose_settings=(None, None)):
     from phri_spring.errors import UsageError
     from phri_spring.io.config import load_config
-    from phri_spring.io.live_sources import import_pylsl, make_source
+    from phri_spring.io.live.sources import import_pylsl, make_source
     from phri_spring.io.logs import parse_column_map, reader_options
     from phri_spring.workflows.live import LiveRun
 
@@ -153,7 +153,7 @@ def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, dura
                   duration=duration, max_samples=max_samples,
                   notify=notify, tolerance=dose_settings[0], dose_alarm=dose_settings[1])
     if dash is not None:
-        from phri_spring.workflows.section_plot import live_section_meta
+        from phri_spring.workflows.plots.section import live_section_meta
 
         dash.set_layout(run.labels, cfg.row_labels, cfg.angle_count, alarm=alarm,
                         title=f"phri live: {cfg.path.name if cfg.path else 'config'}, {arm} arm, "

@@ -91,13 +91,13 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     colmap = parse_column_map(columns)
     if group is not None:
         from phri_spring.errors import UsageError
-        from phri_spring.io.labfiles import lab_format
+        from phri_spring.io.logs.lab import lab_format
 
         if lab_format(log) is None:
             raise UsageError("--group applies to .tdms and .mat logs only", key="--group")
     base = parse_baseline(baseline)
     if tolerance is not None:
-        from phri_spring.io.config_tolerance import curve_option
+        from phri_spring.io.config.tolerance import curve_option
 
         curve_option(tolerance)       # an unknown name is refused before anything is read
         if uncertainty is not None:
@@ -107,7 +107,7 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
                              "writes percentiles of forces, not a run: use one or the other",
                              key="--tolerance")
     if uncertainty is not None:
-        from phri_spring.workflows.uncertainty import run_cli
+        from phri_spring.workflows.uncertainty.run import run_cli
         if base.kind == "none":   # (run_cli refuses any other baseline with its own line)
             config = _check_draws(config, log, output, arm, colmap, group, uncertainty,
                                   uncertainty_sd)
@@ -124,22 +124,22 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     if plot is not None:
         from phri_spring.io.config import load_config
         from phri_spring.io.logs import count_rows, reader_options
-        from phri_spring.workflows.plotting import MaxPool, check_plot_path
+        from phri_spring.workflows.plots.maxpool import MaxPool, check_plot_path
 
         check_plot_path(plot, [log, config, output])
-        from phri_spring.workflows.section_plot import section_path
+        from phri_spring.workflows.plots.section import section_path
 
         section = check_plot_path(section_path(plot), [log, config, output])
         config = load_config(config)
-        from phri_spring.io.config_tolerance import curve_option
-        from phri_spring.workflows.tolerance_extras import exposure_plot_path
+        from phri_spring.io.config.tolerance import curve_option
+        from phri_spring.workflows.columns.tolerance import exposure_plot_path
 
         exposure_plot = None
         if curve_option(tolerance, config) is not None:
             exposure_plot = check_plot_path(exposure_plot_path(plot), [log, config.path, output])
         # the pool and its figure hold about 2,000 groups per element: check before making it
         from phri_spring.io.logs import table_format
-        from phri_spring.io.memory_budget import plan_stream
+        from phri_spring.io.memory.budget import plan_stream
 
         cols_read, group_read = reader_options(config, colmap, group)
         plan_stream(config, arm, chunk_rows, shear=shear, plot=True, log=log,
@@ -158,20 +158,20 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     if pool is not None:
         from pathlib import Path
 
-        from phri_spring.workflows.plotting import write_simulate_plot
+        from phri_spring.workflows.plots.maxpool import write_simulate_plot
 
         pooled = pool.result()
         write_simulate_plot(pooled, plot, labels=summary.labels,
                             pain_threshold_kpa=config.pain_threshold_kpa,
                             title=f"{Path(log).name}: {arm} arm", layout=config.patches)
         if exposure_plot is not None and summary.exposure is not None:
-            from phri_spring.workflows.tolerance_extras import write_exposure_plot
+            from phri_spring.workflows.columns.tolerance import write_exposure_plot
 
             write_exposure_plot(summary.exposure, summary.labels, exposure_plot,
                                 title=f"{Path(log).name}: {arm} arm, exposure against "
                                       f"{summary.exposure.curve.name}")
         if pooled.peak_forces is not None:
-            from phri_spring.workflows.section_plot import write_section_plot
+            from phri_spring.workflows.plots.section import write_section_plot
 
             write_section_plot(config, pooled.peak_forces, section,
                                title=f"{Path(log).name}: {arm} arm, the sample of the peak "
@@ -191,7 +191,7 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     mu = summary.friction_coefficient
     contact = f", friction mu = {mu:g}" if mu is not None else ""
     if summary.exposure is not None:
-        from phri_spring.workflows.tolerance_extras import exposure_text
+        from phri_spring.workflows.columns.tolerance import exposure_text
 
         peak += f"; {exposure_text(summary.labels, summary.exposure)} ({summary.exposure_table})"
     info(f"wrote {summary.output} ({summary.samples:,} samples, {len(summary.labels)} elements, "
@@ -260,8 +260,8 @@ def _check_draws(config, log, output, arm, colmap, group, draws, sd):
     the tissue or the tension is drawn) fit in memory: nothing is drawn or written before."""
     from phri_spring.io.config import load_config
     from phri_spring.io.logs import reader_options, table_format
-    from phri_spring.io.memory_budget import check_draws, check_model
-    from phri_spring.workflows.uncertainty import parse_sd, uncertain_inputs
+    from phri_spring.io.memory.budget import check_draws, check_model
+    from phri_spring.workflows.uncertainty.run import parse_sd, uncertain_inputs
 
     cfg = load_config(config)
     fmt = table_format(output, role="output", option="-o/--output")

@@ -57,21 +57,21 @@ def stiffness(ctx, config, arm, as_json, curves, max_force, max_moment):
 
     from phri_spring.io.config import load_config
     from phri_spring.workflows.common import model_from_config
-    from phri_spring.workflows.stiffness import interface_stiffness_report
+    from phri_spring.workflows.stiffness.matrix import interface_stiffness_report
 
     if curves is None:
         for name in ("max_force", "max_moment"):
             if ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE:
                 raise click.UsageError(f"--{name.replace('_', '-')} needs --curves OUTDIR")
     else:
-        from phri_spring.workflows.stiffness_curves import check_curves_output
+        from phri_spring.workflows.stiffness.curves import check_curves_output
 
         check_curves_output(curves, [config])          # before the work: a bad path fails fast
     cfg = load_config(config)
     model = model_from_config(cfg, arm)
     report = interface_stiffness_report(cfg, arm, model=model)
     if curves is not None:
-        from phri_spring.workflows.stiffness_curves import (stiffness_curves,
+        from phri_spring.workflows.stiffness.curves import (stiffness_curves,
                                                             write_stiffness_curves)
 
         result = stiffness_curves(cfg, arm, max_force=max_force, max_moment=max_moment,

@@ -17,7 +17,7 @@ Conversion (no parameter is tuned to any interface data):
    (``tissue.indenter_diameter``) on the preset's layer (``tissue.continuum``: 25 mm,
    bonded to a rigid bone, nu = 0.45), large-deformation axisymmetric FE (9-node
    quadrilaterals, scikit-fem: the package's ``fe`` extra;
-   ``phri_spring.physics.fe_punch_ogden``, which also has the inverse, alpha from an
+   ``phri_spring.physics.hyperelastic.punch_ogden``, which also has the inverse, alpha from an
    indenter curve's beta: ``ogden_alpha_from_stiffening``), compressible one-term Ogden
    solid W = (2 mu / alpha^2) (l1^alpha + l2^alpha + l3^alpha - 3) + (K/2)(J - 1)^2
    (isochoric stretches l_i = J^(-1/3) lambda_i), alpha = 10 (relaxed), K / mu fixed by
@@ -32,7 +32,7 @@ Conversion (no parameter is tuned to any interface data):
    the preset's pressure pain threshold (``interface.pain_threshold_kpa``, 120 kPa: 7.6 N
    on the 9 mm punch), as far as an indenter test on a person would go.
 4. Fit: beta of the tissue law's own formula F = (k0/beta)(exp(beta d) - 1)
-   (``phri_spring.physics.indentation_exponential.law_force``) by least squares, with k0
+   (``phri_spring.physics.indentation.exponential.law_force``) by least squares, with k0
    the FE curve's own slope at contact and the contact point at d = 0, so that beta
    describes the curve's shape and pairs with the preset's k0. The package's free fit
    (``fit_branches``: k0, beta and a contact offset) is printed too; it trades k0 for beta
@@ -56,10 +56,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.physics.fe_punch import flat_punch_stiffness  # noqa: E402
-from phri_spring.physics.fe_punch_ogden import (fit_stiffening, punch_curve,  # noqa: E402
+from phri_spring.physics.continuum.punch import flat_punch_stiffness  # noqa: E402
+from phri_spring.physics.hyperelastic.punch_ogden import (fit_stiffening, punch_curve,  # noqa: E402
                                                 slope_at_contact)
-from phri_spring.physics.indentation_exponential import fit_branches, law_force  # noqa: E402
+from phri_spring.physics.indentation.exponential import fit_branches, law_force  # noqa: E402
 
 CONFIG = ROOT / "configs" / "human_upper_arm.yaml"
 #: Fougeron et al. 2020 (J. Biomech. Eng. 142(9), doi:10.1115/1.4046444), relaxed thigh

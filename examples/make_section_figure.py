@@ -15,8 +15,8 @@ import tempfile
 from pathlib import Path
 
 from phri_spring.io.config import load_config
-from phri_spring.workflows.plotting import MaxPool
-from phri_spring.workflows.section_plot import write_section_plot
+from phri_spring.workflows.plots.maxpool import MaxPool
+from phri_spring.workflows.plots.section import write_section_plot
 from phri_spring.workflows.simulate import simulate_file
 
 ROOT = Path(__file__).resolve().parents[1]

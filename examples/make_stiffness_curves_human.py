@@ -16,11 +16,11 @@ import dataclasses
 import sys
 from pathlib import Path
 
-from phri_spring.io.atomic import atomic_file
+from phri_spring.io.outputs.atomic import atomic_file
 from phri_spring.io.config import config_from_dict, load_config, load_yaml
-from phri_spring.reports.compare_figures import save_figure
+from phri_spring.reports.compare.figures import save_figure
 from phri_spring.reports.stiffness_curves_figure import stiffness_curves_figure
-from phri_spring.workflows.stiffness_curves import stiffness_curves
+from phri_spring.workflows.stiffness.curves import stiffness_curves
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "human_upper_arm.yaml"

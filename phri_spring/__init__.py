@@ -25,7 +25,7 @@ of the compliant arm, and every function below runs it::
 - :func:`fit_stiffness`        indenter recordings -> tissue stiffness map [N/m]
 - :func:`compare`              arm models' predictions (rigid, compliant, coupled) against a sensorized cuff
 - :class:`Solver`              one sample per call, warm-started (control loops)
-- :func:`model_from_config`    config -> :class:`~phri_spring.physics.model.SpringModel`
+- :func:`model_from_config`    config -> :class:`~phri_spring.physics.springs.model.SpringModel`
 - :func:`cuff_wrench`          load-cell readings (m, 6) -> wrench on the cuff (m, 6) [N, N*m]
 - :func:`interface_stiffness`  tangent 6x6 stiffness of the interface at an equilibrium
 - :class:`Prony`               a relaxation function G(t) (``tissue.relaxation``)
@@ -48,17 +48,17 @@ __version__ = "0.1.0"
 #: flat name -> (module, attribute), imported on first access (PEP 562)
 _LAZY = {
     "load_config": ("phri_spring.io.config", "load_config"),
-    "config_with": ("phri_spring.workflows.design_plan", "config_with"),
+    "config_with": ("phri_spring.workflows.design.plan", "config_with"),
     "simulate": ("phri_spring.workflows.simulate", "simulate"),
     "simulate_file": ("phri_spring.workflows.simulate", "simulate_file"),
-    "fit_stiffness": ("phri_spring.workflows.fit_stiffness", "fit_stiffness"),
-    "compare": ("phri_spring.workflows.compare", "compare"),
-    "Solver": ("phri_spring.physics.solver", "Solver"),
+    "fit_stiffness": ("phri_spring.workflows.fit.stiffness", "fit_stiffness"),
+    "compare": ("phri_spring.workflows.compare.run", "compare"),
+    "Solver": ("phri_spring.physics.contact.solver", "Solver"),
     "model_from_config": ("phri_spring.workflows.common", "model_from_config"),
     "cuff_wrench": ("phri_spring.workflows.common", "cuff_wrench"),
-    "interface_stiffness": ("phri_spring.physics.stiffness", "interface_stiffness"),
-    "HistoryModel": ("phri_spring.physics.history", "HistoryModel"),
-    "Prony": ("phri_spring.physics.relaxation", "Prony"),
+    "interface_stiffness": ("phri_spring.physics.response.stiffness", "interface_stiffness"),
+    "HistoryModel": ("phri_spring.physics.history.model", "HistoryModel"),
+    "Prony": ("phri_spring.physics.history.relaxation", "Prony"),
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

@@ -2,8 +2,8 @@
 
 Every objective a study can minimise, maximise or constrain is one
 :class:`Objective` record in :data:`OBJECTIVE_TABLE`. Everything else reads
-this table: the study file's validation (:mod:`phri_spring.io.study`), the
-evaluation of a design (:func:`phri_spring.workflows.design_objectives.evaluate_design`
+this table: the study file's validation (:mod:`phri_spring.io.config.study`), the
+evaluation of a design (:func:`phri_spring.workflows.design.objectives.evaluate_design`
 loops over it), the footnote of ``report.md`` and the objectives table of
 docs/design.md (:func:`objectives_markdown`; a test keeps the docs equal to it).
 Adding an objective is adding one record here.

@@ -62,7 +62,7 @@ def small_human_cuff(**continuum) -> dict:
     ``tissue.continuum`` updated by ``continuum``."""
     import yaml
 
-    from phri_spring.io.yaml_loader import _StrictSafeLoader
+    from phri_spring.io.config.yaml_loader import _StrictSafeLoader
 
     raw = yaml.load((REPO / "configs" / "human_upper_arm.yaml").read_text(),
                     Loader=_StrictSafeLoader)
@@ -79,12 +79,12 @@ def cached_identification_only(mp, cache=None) -> None:
     cache folder the commands use (PHRI_SPRING_CACHE). ``mp``: a pytest MonkeyPatch."""
     import pytest
 
-    from phri_spring.io import hyper_reduction as store
+    from phri_spring.io.cache import hyper_reduction as store
 
     if cache is not None:
         mp.setenv("PHRI_SPRING_CACHE", str(cache))
     mp.setattr(store, "IDENTIFY_LEVEL", 1)
-    mp.setattr("phri_spring.physics.hyper_reduced.identify",
+    mp.setattr("phri_spring.physics.hyperelastic.reduced.identify",
                lambda *a, **k: pytest.fail("identified again"))
 
 
@@ -93,7 +93,7 @@ def check_friction_laws(model, W, sol, mu):
     of a friction solution (docs/model.md section 12.1); returns (normal forces, the
     released mask, the compressions (spring model; None otherwise), the force scale) of
     those samples for further checks."""
-    from phri_spring.physics import friction
+    from phri_spring.physics.friction import path as friction
 
     form = friction.interface_form(model)
     ok = sol.converged
@@ -203,8 +203,8 @@ def wrenches(draw, max_force=500.0, max_lever=0.12):
 # --------------------------------------------------------------------------- building models
 def build_both(case):
     """(package SpringModel, reference RefModel) of one physics case (same inputs)."""
-    from phri_spring.physics.geometry import cuff_geometry
-    from phri_spring.physics.model import build_model
+    from phri_spring.physics.cuff.geometry import cuff_geometry
+    from phri_spring.physics.springs.model import build_model
 
     g = case["geo"]
     pg = cuff_geometry(list(g["rows"].values()), g["radius"], g["row_width"], g["start"],

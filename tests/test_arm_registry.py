@@ -17,7 +17,7 @@ import pytest
 import yaml
 
 from phri_spring.io.config import load_config
-from phri_spring.physics.solver import solve
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows import common
 from phri_spring.workflows.common import (ARM_MODELS, cuff_wrench, model_from_config,
                                           register_arm)

@@ -16,10 +16,10 @@ import pytest
 import yaml
 
 from phri_spring.errors import ConfigError, DataError, UsageError
-from phri_spring.io.experiment import load_manifest, read_trial
-from phri_spring.reports.compare_figures import heatmap_figure, rmse_bars_figure, wrench_figure
+from phri_spring.io.recordings.experiment import load_manifest, read_trial
+from phri_spring.reports.compare.figures import heatmap_figure, rmse_bars_figure, wrench_figure
 from phri_spring.synthetic.experiment import make_experiment
-from phri_spring.workflows.compare import compare, parse_arms, summary_markdown, write_compare
+from phri_spring.workflows.compare.run import compare, parse_arms, summary_markdown, write_compare
 
 # --------------------------------------------------------------------------- a test config
 CFG = {
@@ -448,7 +448,7 @@ def test_write_compare_writes_every_figure(cfg_path, tmp_path):
                                                                "condition", "trial", "arm",
                                                                "rmse_N"]
     # a failure while writing leaves no folder behind
-    import phri_spring.reports.compare_figures as figs
+    import phri_spring.reports.compare.figures as figs
 
     def boom(*a, **k):
         raise RuntimeError("figure failed")

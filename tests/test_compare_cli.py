@@ -124,7 +124,7 @@ def test_help_has_units_and_example():
 def test_bundled_example_manifest_is_valid():
     # the bundled example must run with the bundled config (reading only: fast)
     from phri_spring.io.config import load_config
-    from phri_spring.io.experiment import load_manifest, read_trial
+    from phri_spring.io.recordings.experiment import load_manifest, read_trial
 
     cfg = load_config(CONFIG)
     man = load_manifest(ROOT / "examples" / "experiment" / "manifest.yaml")

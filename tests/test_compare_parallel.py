@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from conftest import HARMONY_CONFIG, REPO
-from phri_spring.workflows.compare import compare, write_compare
+from phri_spring.workflows.compare.run import compare, write_compare
 
 MANIFEST = REPO / "examples" / "experiment" / "manifest.yaml"
 

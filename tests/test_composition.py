@@ -20,8 +20,8 @@ from conftest import REPO
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 
 from phri_spring.io.config import config_units, load_config  # noqa: E402
-from phri_spring.physics.coupled_hyper import CONTINUUM_LAWS  # noqa: E402
-from phri_spring.physics.tissue_laws import TISSUE_LAWS  # noqa: E402
+from phri_spring.physics.hyperelastic.coupled import CONTINUUM_LAWS  # noqa: E402
+from phri_spring.physics.laws import TISSUE_LAWS  # noqa: E402
 from phri_spring.workflows import composition as cm  # noqa: E402
 from phri_spring.workflows.common import ARM_MODELS  # noqa: E402
 

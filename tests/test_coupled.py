@@ -20,12 +20,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize
 
-from phri_spring.physics import active_set
-from phri_spring.physics import coupled as coupled_module
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solver import Solver, solve, solve_per_sample
-from phri_spring.physics.springs import shear_ratio_from_poisson
+from phri_spring.physics.contact import active_set
+from phri_spring.physics.continuum import coupled as coupled_module
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solver import Solver, solve, solve_per_sample
+from phri_spring.physics.springs.stiffness import shear_ratio_from_poisson
 from phri_spring.synthetic.wrench import smooth_random_log
 
 

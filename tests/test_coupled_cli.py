@@ -17,11 +17,11 @@ import pandas as pd
 import pytest
 import yaml
 from phri_spring.io.config import load_config
-from phri_spring.physics import fe_tissue
-from phri_spring.physics.coupled import build_coupled_model
-from phri_spring.physics.solver import solve
+from phri_spring.physics.continuum import tissue as fe_tissue
+from phri_spring.physics.continuum.coupled import build_coupled_model
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import geometry_from_config, model_from_config
-from phri_spring.workflows.stiffness import interface_stiffness_report
+from phri_spring.workflows.stiffness.matrix import interface_stiffness_report
 
 from conftest import HARMONY_CONFIG, run_phri as run, stderr_of
 from test_coupled import _kernel_K

@@ -25,9 +25,9 @@ from scipy.optimize import nnls
 pytest.importorskip("skfem")
 
 from phri_spring.io.config import load_config  # noqa: E402
-from phri_spring.physics import fe_tissue  # noqa: E402
-from phri_spring.physics.coupled import build_coupled_model  # noqa: E402
-from phri_spring.physics.solver import Solver, solve  # noqa: E402
+from phri_spring.physics.continuum import tissue as fe_tissue  # noqa: E402
+from phri_spring.physics.continuum.coupled import build_coupled_model  # noqa: E402
+from phri_spring.physics.contact.solver import Solver, solve  # noqa: E402
 from phri_spring.workflows.common import geometry_from_config  # noqa: E402
 
 from conftest import REPO  # noqa: E402

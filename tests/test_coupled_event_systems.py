@@ -20,9 +20,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from phri_spring.io.config import load_config
-from phri_spring.physics import friction_events
-from phri_spring.physics.friction_form import RELEASED, SLIDING, STUCK, solve_state, interface_form
-from phri_spring.physics.solver import solve
+from phri_spring.physics.friction import events as friction_events
+from phri_spring.physics.friction.form import RELEASED, SLIDING, STUCK, solve_state, interface_form
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 
 from conftest import REPO

@@ -17,13 +17,13 @@ import numpy as np
 import pytest
 
 from phri_spring.io.config import load_config
-from phri_spring.physics.coupled import LIFT_OFF_MU, build_coupled_model
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solver import solve
-from phri_spring.physics.tissue_laws import LinearLaw
+from phri_spring.physics.continuum.coupled import LIFT_OFF_MU, build_coupled_model
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solver import solve
+from phri_spring.physics.laws import LinearLaw
 from phri_spring.workflows.common import cuff_wrench, model_from_config
-from phri_spring.workflows.shear_extras import shear_extras
+from phri_spring.workflows.columns.shear import shear_extras
 
 from conftest import REPO
 

@@ -26,10 +26,10 @@ from conftest import harmony_dict, one_line
 from phri_cli.main import phri
 from phri_spring.io.config import load_config
 from phri_spring.io.logs import read_wrench_log
-from phri_spring.physics.solver import solve
+from phri_spring.physics.contact.solver import solve
 from phri_spring.synthetic.wrench import smooth_random_log
 from phri_spring.workflows.common import cuff_wrench, model_from_config
-from phri_spring.workflows.design import (STATE_DIR, design_mapping, load_set, pareto_mask,
+from phri_spring.workflows.design.study import (STATE_DIR, design_mapping, load_set, pareto_mask,
                                           prepare_study, run_study, weighted_percentile)
 from phri_spring.workflows.simulate import simulate
 

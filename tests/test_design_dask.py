@@ -12,7 +12,7 @@ from test_design import make_study
 
 distributed = pytest.importorskip("distributed")
 
-from phri_spring.workflows.design import run_study  # noqa: E402
+from phri_spring.workflows.design.study import run_study  # noqa: E402
 
 
 def test_local_cluster_and_pool_give_identical_tables(tmp_path):

@@ -22,10 +22,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq, minimize
 
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model
-from phri_spring.physics.solver import solve
-from phri_spring.physics.tissue_laws import ExponentialLaw, LinearLaw, SeriesElement, make_law
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model
+from phri_spring.physics.contact.solver import solve
+from phri_spring.physics.laws import ExponentialLaw, LinearLaw, SeriesElement, make_law
 
 from conftest import HARMONY_CONFIG, run_phri, stderr_of
 
@@ -283,7 +283,7 @@ def test_fast_and_damped_iterations_reach_the_same_equilibrium(monkeypatch, beta
     """The mixed (displacement and tissue share) Newton iteration that solves most rows and
     the damped Newton on the energy (docs/model.md 11.2) are different algorithms with the
     same stopping rule: their forces agree to 1e-8 of the peak, and both balance the wrench."""
-    from phri_spring.physics import spring_newton
+    from phri_spring.physics.springs import newton as spring_newton
 
     model = _harmony_exponential(beta)
     W = _random_wrenches(400, scale, 5)
@@ -302,7 +302,7 @@ def test_rows_the_fast_iteration_leaves_are_solved_by_the_damped_one(monkeypatch
     """Very steep stiffening under large loads: the undamped iteration does not settle on
     some rows within its budget; those rows are handed to the damped Newton, and every row
     converges to the equilibrium found by an independent energy minimisation."""
-    from phri_spring.physics import spring_newton
+    from phri_spring.physics.springs import newton as spring_newton
 
     handed = []
     damped = spring_newton._newton_rows
@@ -329,7 +329,7 @@ def test_rows_the_fast_iteration_leaves_are_solved_by_the_damped_one(monkeypatch
 
 
 def test_single_sample_solver_matches_the_batch_with_a_stiffening_law():
-    from phri_spring.physics.solver import Solver
+    from phri_spring.physics.contact.solver import Solver
 
     model = _harmony_exponential(200.0)
     W = _random_wrenches(50, 4.0, 9)
@@ -413,7 +413,7 @@ def test_rows_resumed_from_another_block_end_where_one_pass_ends():
     together (docs/model.md 11.1): stopping and resuming must not change a row's path.
     The arithmetic per row is the same; only the blocks the matrix products see differ, so
     the answers agree to round-off and the rows take the same steps."""
-    from phri_spring.physics import spring_newton as sn
+    from phri_spring.physics.springs import newton as sn
 
     model = _harmony_exponential(300.0, kc_scale=0.5)
     W = _stepped_log(300, 21) + model.W_pre

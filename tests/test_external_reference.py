@@ -84,9 +84,9 @@ try:
 except ImportError:  # pragma: no cover - the test extra installs it
     pytest.fail("PyNiteFEA is missing: pip install -e .[test]", pytrace=False)
 
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solver import shear_forces, solve
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solver import shear_forces, solve
 
 #: Young's modulus of the beams that tie the element points to the cuff node [Pa]
 RIGID_E = 1e12

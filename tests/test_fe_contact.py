@@ -1,4 +1,4 @@
-"""The contact reference FE (phri_spring.physics.fe_contact): node-by-node unilateral
+"""The contact reference FE (phri_spring.physics.continuum.contact_reference): node-by-node unilateral
 contact of rigid plates on the tissue, frictionless and with Coulomb friction.
 
 Expected values come from independent routes: the bonded rigid-cuff FE of
@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 
 from phri_spring.errors import ConvergenceError, ModelInputError
-from phri_spring.physics.geometry import cuff_geometry, rigid_body_map
+from phri_spring.physics.cuff.geometry import cuff_geometry, rigid_body_map
 
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 
-from phri_spring.physics import fe_contact as fc  # noqa: E402
-from phri_spring.physics import fe_tissue  # noqa: E402
+from phri_spring.physics.continuum import contact_reference as fc  # noqa: E402
+from phri_spring.physics.continuum import tissue as fe_tissue  # noqa: E402
 
 #: two rows x four 90-degree patches round the whole arm: mirror symmetric in x and z
 GEOM = cuff_geometry([-0.0125, 0.0125], 0.04, 0.025, 45.0, 90.0, 4)
@@ -211,8 +211,8 @@ def test_bonded_plates_in_full_contact_are_the_coupled_model(fe):
     preload (delta, W_pre) both report the same patch forces."""
     if fe.info["patch_gap"] <= 0:
         pytest.skip("tiled plates share nodes: the condensation smooths their edges")
-    from phri_spring.physics.coupled import build_coupled_model
-    from phri_spring.physics.solver import solve
+    from phri_spring.physics.continuum.coupled import build_coupled_model
+    from phri_spring.physics.contact.solver import solve
 
     ops = fe_tissue.condensed_surface_operators(GEOM, T_TISSUE, E, NU, level=1,
                                                 length_factor=LF)

@@ -1,4 +1,4 @@
-"""The hyperelastic reference FE (phri_spring.physics.fe_hyper, felupe).
+"""The hyperelastic reference FE (phri_spring.physics.hyperelastic.fe, felupe).
 
 Expected values come from the project's linear FE on the same mesh
 (fe_reference.direct_rigid_cuff_response, scikit-fem), from statics (the patch forces add
@@ -18,10 +18,10 @@ pytest.importorskip("felupe", reason="the hyper extra (felupe) is not installed"
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 
 from phri_spring.errors import UsageError  # noqa: E402
-from phri_spring.physics import fe_hyper as fh  # noqa: E402
-from phri_spring.physics.coupled import patch_frames  # noqa: E402
-from phri_spring.physics.fe_reference import direct_rigid_cuff_response  # noqa: E402
-from phri_spring.physics.geometry import cuff_geometry  # noqa: E402
+from phri_spring.physics.hyperelastic import fe as fh  # noqa: E402
+from phri_spring.physics.continuum.coupled import patch_frames  # noqa: E402
+from phri_spring.physics.continuum.reference import direct_rigid_cuff_response  # noqa: E402
+from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
 
 GEOM = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)   # human preset
 T, E, NU, LF = 0.025, 3.0e4, 0.45, 1.5

@@ -1,8 +1,8 @@
-"""Large-deformation Ogden punch (phri_spring.physics.fe_punch_ogden): stress, slope, inverse.
+"""Large-deformation Ogden punch (phri_spring.physics.hyperelastic.punch_ogden): stress, slope, inverse.
 
 References are written here independently of the module: the compressible neo-Hookean
 stress in closed form, the Ogden energy from the eigenvalues of the full 3 x 3 C, the
-package's linear punch FE (phri_spring.physics.fe_punch) and the exponential law.
+package's linear punch FE (phri_spring.physics.continuum.punch) and the exponential law.
 """
 
 import math
@@ -13,8 +13,8 @@ import pytest
 pytest.importorskip("skfem")
 
 from phri_spring.errors import ConvergenceError  # noqa: E402
-from phri_spring.physics.fe_punch import flat_punch_stiffness  # noqa: E402
-from phri_spring.physics.fe_punch_ogden import (  # noqa: E402
+from phri_spring.physics.continuum.punch import flat_punch_stiffness  # noqa: E402
+from phri_spring.physics.hyperelastic.punch_ogden import (  # noqa: E402
     fit_stiffening, ogden_alpha_from_stiffening, ogden_stress, punch_stiffening,
     slope_at_contact)
 

@@ -1,4 +1,4 @@
-"""The built-in tissue FE (phri_spring.physics.fe_tissue) against closed forms,
+"""The built-in tissue FE (phri_spring.physics.continuum.tissue) against closed forms,
 an independent integral-equation solution and the symmetries of the problem.
 
 Coarse mesh levels only: the convergence study is benchmarks/fe_convergence.py.
@@ -14,9 +14,9 @@ import scipy.sparse.linalg as spla
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from phri_spring.physics import fe_tissue as fe
+from phri_spring.physics.continuum import tissue as fe
 from reference_layer import kappa_integral_equation
-from phri_spring.physics.geometry import cuff_geometry
+from phri_spring.physics.cuff.geometry import cuff_geometry
 
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 

@@ -18,7 +18,7 @@ pytest.importorskip("matplotlib")
 
 from matplotlib.testing.compare import compare_images  # noqa: E402
 
-from phri_spring.reports.compare_figures import heatmap_figure, save_figure, wrench_figure  # noqa: E402
+from phri_spring.reports.compare.figures import heatmap_figure, save_figure, wrench_figure  # noqa: E402
 
 DATA = Path(__file__).parent / "data"
 TOL = 2.0
@@ -96,7 +96,7 @@ def _scaled_inputs(k):
 
 
 def test_reused_renderer_draws_what_a_new_figure_draws(tmp_path):
-    from phri_spring.reports.compare_figures import HeatmapRenderer
+    from phri_spring.reports.compare.figures import HeatmapRenderer
 
     r = HeatmapRenderer(3, row_labels=("A", "B", "C"), n_angles=7)
     for k in range(6):          # colour scales of several widths, one met twice
@@ -110,7 +110,7 @@ def test_reused_renderer_draws_what_a_new_figure_draws(tmp_path):
 
 
 def test_rendering_does_not_depend_on_what_came_before(tmp_path):
-    from phri_spring.reports.compare_figures import HeatmapRenderer
+    from phri_spring.reports.compare.figures import HeatmapRenderer
 
     def run(order, folder):
         folder.mkdir()
@@ -128,7 +128,7 @@ def test_rendering_does_not_depend_on_what_came_before(tmp_path):
 
 
 def test_reused_wrench_renderer_draws_what_a_new_figure_draws(tmp_path):
-    from phri_spring.reports.compare_figures import WrenchRenderer
+    from phri_spring.reports.compare.figures import WrenchRenderer
 
     t, w, cond = wrench_inputs()
     r = WrenchRenderer()
@@ -147,7 +147,7 @@ def test_reused_wrench_renderer_draws_what_a_new_figure_draws(tmp_path):
 def test_png_writer_keeps_every_pixel(tmp_path, opaque):
     from PIL import Image
 
-    from phri_spring.reports.compare_figures import write_png
+    from phri_spring.reports.compare.figures import write_png
 
     rng = np.random.default_rng(7)
     rgba = rng.integers(0, 256, (31, 47, 4), dtype=np.uint8)
@@ -167,7 +167,7 @@ def test_cell_values_draw_what_plain_texts_draw():
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from phri_spring.reports.compare_heatmap import _CellText
+    from phri_spring.reports.compare.heatmap import _CellText
 
     rng = np.random.default_rng(3)
     values = [f"{v:.1f}" for v in rng.normal(0, 20, 40)] + ["0.0", "-0.1", "123.4", ""]
@@ -205,7 +205,7 @@ def test_save_figure_writes_the_pixels_of_savefig(tmp_path, kind):
     import pandas as pd
     from matplotlib.figure import Figure
 
-    from phri_spring.reports.compare_figures import rmse_bars_figure
+    from phri_spring.reports.compare.figures import rmse_bars_figure
 
     def make():
         if kind == "heatmap":
@@ -244,7 +244,7 @@ def test_save_figure_honours_the_users_savefig_settings(tmp_path, rc):
     # a matplotlibrc asking savefig for a tight box or another background is obeyed
     import matplotlib
 
-    from phri_spring.reports.compare_figures import HeatmapRenderer
+    from phri_spring.reports.compare.figures import HeatmapRenderer
 
     m, s, e, t = heatmap_inputs()
     with matplotlib.rc_context(rc):

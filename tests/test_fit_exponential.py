@@ -18,8 +18,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from phri_spring.errors import UsageError
-from phri_spring.physics.indentation import fit_trial
-from phri_spring.physics.indentation_exponential import fit_branches, fit_trial_exponential
+from phri_spring.physics.indentation.linear import fit_trial
+from phri_spring.physics.indentation.exponential import fit_branches, fit_trial_exponential
 from phri_spring.synthetic.indenter import synth_dataset, synth_trial, truth_map, write_trials
 
 from conftest import HARMONY_CONFIG, REPO, assert_one_line_error, run_phri, stderr_of
@@ -204,7 +204,7 @@ def test_cli_per_trial_values_and_spreads(stiffening_set):
 
 def test_force_displacement_grid_draws_the_fitted_curves(stiffening_set):
     from phri_spring.reports.indenter_figures import force_displacement_grid
-    from phri_spring.workflows.fit_stiffness import fit_stiffness
+    from phri_spring.workflows.fit.stiffness import fit_stiffness
 
     _, _, _, base, _ = stiffening_set
     result = fit_stiffness(base / "folder", law="exponential")
@@ -281,7 +281,7 @@ def test_bad_law_is_a_one_line_usage_error(linear_folder, tmp_path):
     res = run_phri("fit-stiffness", linear_folder, "-o", out, "--law", "cubic")
     assert_one_line_error(res, "--law", "cubic", code=2)
     assert not out.exists()
-    from phri_spring.workflows.fit_stiffness import fit_stiffness
+    from phri_spring.workflows.fit.stiffness import fit_stiffness
 
     with pytest.raises(UsageError) as err:
         fit_stiffness(linear_folder, law="cubic")

@@ -1,7 +1,7 @@
 """``phri fit-stiffness --law qlv``: quasi-linear viscoelastic tissue from indenter trials.
 
 References are independent of the fit: the model force of a trial is checked against the
-O(m^2) hereditary integral of :mod:`phri_spring.physics.relaxation` and against the closed
+O(m^2) hereditary integral of :mod:`phri_spring.physics.history.relaxation` and against the closed
 form of a ramp written out here; the synthetic trials compute the force in closed form over
 the depth path (:mod:`phri_spring.synthetic.indenter_qlv`), not with the recursion the fit
 uses; recovered parameters are compared with the ones the trials were made with.
@@ -17,12 +17,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from phri_spring.errors import DataError, UsageError
-from phri_spring.physics.indentation_qlv import (ELASTIC_LAWS, elastic_force, fit_qlv,
+from phri_spring.physics.indentation.qlv import (ELASTIC_LAWS, elastic_force, fit_qlv,
                                                  memory_terms, qlv_force)
-from phri_spring.physics.indentation_qlv_window import (HOLD_MIN_S, check_identifiable,
+from phri_spring.physics.indentation.qlv_window import (HOLD_MIN_S, check_identifiable,
                                                         qlv_window)
-from phri_spring.physics.indentation_signal import TrialError
-from phri_spring.physics.relaxation import Prony, hereditary_force
+from phri_spring.physics.indentation.signal import TrialError
+from phri_spring.physics.history.relaxation import Prony, hereditary_force
 from phri_spring.synthetic.indenter import write_trials
 from phri_spring.synthetic.indenter_qlv import (qlv_path_force, ramp_hold_path,
                                                 synth_qlv_trial)
@@ -176,7 +176,7 @@ def test_one_rate_without_a_hold_is_not_identifiable():
 
 
 def test_elastic_parts_of_the_registry_are_those_of_the_fit():
-    from phri_spring.workflows.fit_laws import ELASTIC_PARTS, FIT_LAWS
+    from phri_spring.workflows.fit.laws import ELASTIC_PARTS, FIT_LAWS
 
     assert tuple(ELASTIC_PARTS) == tuple(ELASTIC_LAWS)
     assert "qlv" in FIT_LAWS
@@ -248,7 +248,7 @@ def test_cli_refuses_options_that_do_not_apply(args, needle, tmp_path):
 
 
 def test_library_refuses_qlv_options_with_another_law():
-    from phri_spring.workflows.fit_stiffness import fit_stiffness
+    from phri_spring.workflows.fit.stiffness import fit_stiffness
 
     with pytest.raises(UsageError) as err:
         fit_stiffness(EXAMPLE, law="linear", relaxation_terms=2)
@@ -290,7 +290,7 @@ def test_skip_bad_trials_leaves_an_unidentifiable_location_out(tmp_path):
     write_trials([synth_qlv_trial(4000.0, [0.4], [1.0], location="A0"),
                   synth_qlv_trial(4000.0, [0.4], [1.0], hold_s=0.0, location="A1")], folder,
                  force_decimals=5, displacement_decimals=6)
-    from phri_spring.workflows.fit_stiffness import fit_stiffness
+    from phri_spring.workflows.fit.stiffness import fit_stiffness
 
     with pytest.raises(DataError, match="A1_1.csv"):
         fit_stiffness(folder, law="qlv", relaxation_terms=1)
@@ -302,7 +302,7 @@ def test_skip_bad_trials_leaves_an_unidentifiable_location_out(tmp_path):
 def test_force_time_figure_has_a_panel_per_location():
     from matplotlib.figure import Figure
 
-    from phri_spring.physics.indentation_qlv import QlvLocationFit
+    from phri_spring.physics.indentation.qlv import QlvLocationFit
     from phri_spring.reports.indenter_qlv_figures import force_time_grid
 
     locs = []

@@ -334,7 +334,7 @@ def test_plots_written_to_dir(unseen, tmp_path):
 
 
 def test_failure_while_plotting_leaves_nothing(unseen, tmp_path, monkeypatch):
-    import phri_spring.workflows.fit_stiffness as wf
+    import phri_spring.workflows.fit.stiffness as wf
 
     _, base, _ = unseen
 
@@ -351,7 +351,7 @@ def test_failure_while_plotting_leaves_nothing(unseen, tmp_path, monkeypatch):
 
 
 def test_failure_while_writing_the_csv_leaves_nothing(unseen, tmp_path, monkeypatch):
-    import phri_spring.workflows.fit_stiffness as wf
+    import phri_spring.workflows.fit.stiffness as wf
 
     _, base, _ = unseen
 
@@ -372,7 +372,7 @@ def test_figures_are_figure_objects(unseen):
 
     from phri_spring.reports.indenter_figures import (force_displacement_grid,
                                                       indentation_response, stiffness_map)
-    from phri_spring.workflows.fit_stiffness import fit_stiffness
+    from phri_spring.workflows.fit.stiffness import fit_stiffness
 
     truth, base, _ = unseen
     result = fit_stiffness(base / "folder")
@@ -402,7 +402,7 @@ def test_figures_are_figure_objects(unseen):
 
 def test_grid_with_missing_locations_keeps_the_layout(tmp_path):
     from phri_spring.reports.indenter_figures import force_displacement_grid, stiffness_map
-    from phri_spring.workflows.fit_stiffness import fit_stiffness
+    from phri_spring.workflows.fit.stiffness import fit_stiffness
 
     folder = tmp_path / "f"
     small_set(folder)

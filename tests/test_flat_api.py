@@ -19,12 +19,12 @@ FLAT = {
     "load_config": "phri_spring.io.config",
     "simulate": "phri_spring.workflows.simulate",
     "simulate_file": "phri_spring.workflows.simulate",
-    "fit_stiffness": "phri_spring.workflows.fit_stiffness",
-    "compare": "phri_spring.workflows.compare",
-    "Solver": "phri_spring.physics.solver",
+    "fit_stiffness": "phri_spring.workflows.fit.stiffness",
+    "compare": "phri_spring.workflows.compare.run",
+    "Solver": "phri_spring.physics.contact.solver",
     "model_from_config": "phri_spring.workflows.common",
     "cuff_wrench": "phri_spring.workflows.common",
-    "interface_stiffness": "phri_spring.physics.stiffness",
+    "interface_stiffness": "phri_spring.physics.response.stiffness",
 }
 
 

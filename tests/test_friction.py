@@ -21,12 +21,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import check_friction_laws
-from phri_spring.physics import friction, friction_events
-from phri_spring.physics.active_set import FactorCache
-from phri_spring.physics.coupled import build_coupled_model
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solver import solve
+from phri_spring.physics.friction import path as friction
+from phri_spring.physics.friction import events as friction_events
+from phri_spring.physics.contact.active_set import FactorCache
+from phri_spring.physics.continuum.coupled import build_coupled_model
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solver import solve
 from phri_spring.synthetic.wrench import smooth_random_log
 
 MU = 0.5
@@ -182,7 +183,7 @@ def test_blocks_and_events_agree_and_chunks_carry_the_path():
 
 
 def test_single_sample_solver_and_plain_path_follow_the_same_path():
-    from phri_spring.physics.solver import Solver, solve_per_sample
+    from phri_spring.physics.contact.solver import Solver, solve_per_sample
 
     model = _harmony()
     _, W = smooth_random_log(300, seed=3)

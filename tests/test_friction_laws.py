@@ -21,14 +21,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import check_friction_laws
-from phri_spring.physics import friction
-from phri_spring.physics.active_set import FactorCache
-from phri_spring.physics.friction_form import InterfaceForm
-from phri_spring.physics.friction_normal import NormalResponse
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solver import solve
-from phri_spring.physics.tissue_laws import SeriesElement, make_law
+from phri_spring.physics.friction import path as friction
+from phri_spring.physics.contact.active_set import FactorCache
+from phri_spring.physics.friction.form import InterfaceForm
+from phri_spring.physics.friction.normal import NormalResponse
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solver import solve
+from phri_spring.physics.laws import SeriesElement, make_law
 from phri_spring.synthetic.wrench import smooth_random_log
 
 BETA = 115.0          # 1/m, the human preset's stiffening
@@ -179,7 +179,7 @@ def test_blocks_and_events_agree_with_the_exponential_law():
 
 def test_a_law_with_history_and_friction_is_refused_in_one_line():
     from phri_spring.errors import ModelInputError
-    from phri_spring.physics.tissue_laws import LinearLaw
+    from phri_spring.physics.laws import LinearLaw
 
     class Remembering(LinearLaw):
         name = "remembering_test_law"

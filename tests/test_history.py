@@ -10,11 +10,11 @@ import pytest
 from hypothesis import given, settings, strategies as st
 from scipy.optimize import root
 
-from phri_spring.physics.geometry import cuff_geometry, element_jacobians
-from phri_spring.physics.history import HistoryModel
-from phri_spring.physics.model import build_model
-from phri_spring.physics.relaxation import Prony
-from phri_spring.physics.solver import solve
+from phri_spring.physics.cuff.geometry import cuff_geometry, element_jacobians
+from phri_spring.physics.history.model import HistoryModel
+from phri_spring.physics.springs.model import build_model
+from phri_spring.physics.history.relaxation import Prony
+from phri_spring.physics.contact.solver import solve
 
 
 def _model(k_c=1e5, law="linear", stiffening=0.0, tension=15.0):
@@ -181,8 +181,8 @@ def test_a_rested_tissue_carries_the_relaxed_load():
 def _one_element(times, r_z, Ms_zz, prony, k=2000.0):
     """One element along z (rigid cuff, linear tissue k [N/m]) with a parallel spring
     eta k' Ms_zz along z and every other axis held: its force and compression per sample."""
-    from phri_spring.physics.history_kernel import solve_history
-    from phri_spring.physics.relaxation import step_coefficients
+    from phri_spring.physics.history.kernel import solve_history
+    from phri_spring.physics.history.relaxation import step_coefficients
 
     t = np.asarray(times, float)
     m = len(t)

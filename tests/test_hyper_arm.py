@@ -20,7 +20,7 @@ import pandas as pd
 import pytest
 
 from phri_spring.io.config import config_from_dict
-from phri_spring.physics.solver import Solver, solve
+from phri_spring.physics.contact.solver import Solver, solve
 
 from conftest import (REPO, assert_one_line_error, cached_identification_only, run_phri,
                       small_human_cuff, stderr_of, write_yaml)
@@ -47,8 +47,8 @@ def identified(tmp_path_factory):
     """(model at mesh level 1, its FE, the cache folder): identified once for the module."""
     pytest.importorskip("felupe", reason="the hyper extra (felupe) is not installed")
     pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
-    from phri_spring.io import hyper_reduction as store
-    from phri_spring.physics import fe_hyper as fh
+    from phri_spring.io.cache import hyper_reduction as store
+    from phri_spring.physics.hyperelastic import fe as fh
     from phri_spring.workflows.common import coupled_model
 
     cache = tmp_path_factory.mktemp("cache")
@@ -64,7 +64,7 @@ def identified(tmp_path_factory):
 
 
 def test_identified_model_matches_the_fe_off_its_rays(identified):
-    from phri_spring.physics import fe_hyper as fh
+    from phri_spring.physics.hyperelastic import fe as fh
 
     model, fe, _, _ = identified
     assert model.reduction.info["source"] == "identified"
@@ -156,7 +156,7 @@ def test_configs_it_is_not_identified_for_are_one_line(tmp_path, edit, key):
 def test_a_range_the_fe_cannot_reach_is_one_line(tmp_path, monkeypatch):
     pytest.importorskip("felupe", reason="the hyper extra (felupe) is not installed")
     pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
-    from phri_spring.io import hyper_reduction as store
+    from phri_spring.io.cache import hyper_reduction as store
 
     monkeypatch.setenv("PHRI_SPRING_CACHE", str(tmp_path / "cache"))
     monkeypatch.setattr(store, "IDENTIFY_LEVEL", 1)

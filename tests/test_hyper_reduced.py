@@ -1,4 +1,4 @@
-"""The reduced neo-Hookean model's algebra (phri_spring.physics.hyper_reduced, coupled_hyper).
+"""The reduced neo-Hookean model's algebra (phri_spring.physics.hyperelastic.reduced, coupled_hyper).
 
 No FE here (tests/test_hyper_arm.py identifies one): the monomials against their
 definition and finite differences, the fit against polynomials it must reproduce exactly,
@@ -16,12 +16,12 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.optimize import root
 
-from phri_spring.physics import hyper_reduced as hr
-from phri_spring.physics.coupled import build_coupled_model
-from phri_spring.physics.coupled_hyper import HyperCoupledModel
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.solver import Solver, solve, solve_per_sample
-from phri_spring.physics.stiffness import interface_stiffness
+from phri_spring.physics.hyperelastic import reduced as hr
+from phri_spring.physics.continuum.coupled import build_coupled_model
+from phri_spring.physics.hyperelastic.coupled import HyperCoupledModel
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.contact.solver import Solver, solve, solve_per_sample
+from phri_spring.physics.response.stiffness import interface_stiffness
 
 K = len(hr.EXPONENTS)
 GEOM = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)

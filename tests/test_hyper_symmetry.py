@@ -1,5 +1,5 @@
 """Mirror symmetry of the reduced hyperelastic model (docs/model.md 10.8,
-phri_spring.physics.hyper_symmetry).
+phri_spring.physics.hyperelastic.symmetry).
 
 Independent of the code under test: which planes the human preset is symmetric about (its
 rows at x = -25, 0, 25 mm, its patches at angles symmetric about the plane z = 0; the
@@ -17,9 +17,9 @@ import pytest
 import yaml
 
 from phri_spring.io.config import config_from_dict
-from phri_spring.io.yaml_loader import _StrictSafeLoader
-from phri_spring.physics.hyper_reduced import EXPONENTS, HyperReduction, features, linear_bonded
-from phri_spring.physics.hyper_symmetry import mirror_group, pose_signs, symmetrized
+from phri_spring.io.config.yaml_loader import _StrictSafeLoader
+from phri_spring.physics.hyperelastic.reduced import EXPONENTS, HyperReduction, features, linear_bonded
+from phri_spring.physics.hyperelastic.symmetry import mirror_group, pose_signs, symmetrized
 from phri_spring.workflows.common import _linear_coupled_model
 
 from conftest import REPO

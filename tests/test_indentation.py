@@ -1,4 +1,4 @@
-"""Indenter analysis (phri_spring.physics.indentation) and its synthetic generator.
+"""Indenter analysis (phri_spring.physics.indentation.linear) and its synthetic generator.
 
 Expected values are closed forms of hand-built trials (piecewise-linear depth,
 force laws written out in the test), never the package's own output.
@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from phri_spring.physics.indentation import (TrialError, default_onset_threshold,
+from phri_spring.physics.indentation.linear import (TrialError, default_onset_threshold,
                                              detect_onset, fit_line, fit_location, fit_trial,
                                              location_statistics, split_strokes,
                                              trial_spread, turning_points, zero_level)

@@ -289,7 +289,7 @@ def _experiment_copy(tmp_path, fmt):
 
 @pytest.mark.parametrize("fmt", ["tdms", "mat"])
 def test_compare_lab_trials_give_the_csv_tables(tmp_path, fmt):
-    from phri_spring.workflows.compare import compare
+    from phri_spring.workflows.compare.run import compare
 
     want = compare(HARMONY_CONFIG, REPO / "examples" / "experiment" / "manifest.yaml")
     man = _experiment_copy(tmp_path, fmt)

@@ -181,7 +181,7 @@ def test_alarm_lines_follow_the_peak_ratio_of_simulate(tmp_path):
 
 def test_observers_get_every_sample(tmp_path):
     from phri_spring.io.config import load_config
-    from phri_spring.io.live_sources import StdinCsvSource
+    from phri_spring.io.live.sources import StdinCsvSource
     from phri_spring.workflows.live import LiveRun
 
     lines = log_lines(300)
@@ -299,7 +299,7 @@ def test_netft_box_that_goes_away_is_asked_again_and_the_gap_recorded(tmp_path):
 
 
 def test_rdt_sequence_gaps_wrap_and_restarts():
-    from phri_spring.io.netft_rdt import SequenceTracker, pack_command, unpack_record
+    from phri_spring.io.live.netft import SequenceTracker, pack_command, unpack_record
 
     assert pack_command(2) == bytes.fromhex("1234000200000000")
     assert pack_command(0) == bytes.fromhex("1234000000000000")
@@ -410,7 +410,7 @@ def _pylsl():
         mod.local_clock()
     except Exception as exc:  # noqa: BLE001 - no pylsl or no liblsl: the live extra is absent
         pytest.skip(f"pylsl unavailable: {exc}")
-    from phri_spring.io.live_sources import quiet_lsl
+    from phri_spring.io.live.sources import quiet_lsl
 
     quiet_lsl(mod)
     return mod

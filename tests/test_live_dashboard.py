@@ -31,7 +31,7 @@ from click.testing import CliRunner
 from conftest import HARMONY_CONFIG, REPO, one_line, wait_for
 from conftest import example_log_lines as log_lines
 from phri_cli.main import phri
-from phri_spring.io.live_dashboard import LiveDashboard, page_text, parse_address
+from phri_spring.io.live.dashboard import LiveDashboard, page_text, parse_address
 
 LOG = REPO / "examples" / "wrench_log.csv"
 LABELS = [f"{r}{j}" for r in "ABC" for j in range(7)]
@@ -153,7 +153,7 @@ def test_events_carry_the_forces_of_simulate(reference):
 
 # --------------------------------------------------------------------------- the page
 def test_the_page_comes_from_the_installed_package_and_loads_nothing_from_elsewhere():
-    path = resources.files("phri_spring.io").joinpath("live_dashboard.html")
+    path = resources.files("phri_spring.io.live").joinpath("dashboard.html")
     html = path.read_text(encoding="utf-8")
     assert html == page_text()
     with LiveDashboard("127.0.0.1", 0) as dash:

@@ -23,13 +23,13 @@ from hypothesis import strategies as st
 from conftest import build_both, physics_cases, run_phri, wrenches
 from phri_cli.simulate import percent_parts
 from phri_spring.io.config import load_config
-from phri_spring.physics.coupled import build_coupled_model
-from phri_spring.physics.geometry import cuff_geometry, section_geometry
-from phri_spring.physics.load_path import (force_parts, load_shares, share_sums, shear_rows,
+from phri_spring.physics.continuum.coupled import build_coupled_model
+from phri_spring.physics.cuff.geometry import cuff_geometry, section_geometry
+from phri_spring.physics.contact.load_path import (force_parts, load_shares, share_sums, shear_rows,
                                            transmitted, transmitted_sums)
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solution import Solution
-from phri_spring.physics.solver import solve
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solution import Solution
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 from phri_spring.workflows.simulate import SummaryAccumulator, simulate_file
 
@@ -45,7 +45,7 @@ def _harmony(arm="compliant", mu=None):
 
 def _tapered_ellipse(arm="compliant"):
     """An elliptic (0.8), turned, tapered (6 deg) limb: shear directions that are not +x."""
-    from phri_spring.physics.sections import EllipseSection
+    from phri_spring.physics.limb.sections import EllipseSection
 
     sec = (EllipseSection(0.05, 0.04, np.radians(20.0)),) * 3
     g = section_geometry([-0.025, 0.0, 0.025], sec, 0.025, 75.0, 35.0, 7, taper_deg=6.0)

@@ -43,7 +43,8 @@ def _two_group_tdms(path):
 @pytest.fixture
 def reads(monkeypatch):
     """Every (column map, group) the TDMS reader is called with."""
-    from phri_spring.io import labfiles, log_formats
+    from phri_spring.io.logs import lab as labfiles
+    from phri_spring.io.logs import formats as log_formats
 
     seen = []
 

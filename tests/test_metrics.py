@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from phri_spring.physics.metrics import mean_and_se, rmse, standard_error, zero_on
+from phri_spring.physics.response.metrics import mean_and_se, rmse, standard_error, zero_on
 
 
 def test_rmse_zero_when_equal():

@@ -19,12 +19,12 @@ import pytest
 import yaml
 from click.testing import CliRunner
 
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model
-from phri_spring.physics.no_equilibrium import (AXIAL, NONE, NOT_CONVERGED, PULL, REASONS,
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model
+from phri_spring.physics.contact.no_equilibrium import (AXIAL, NONE, NOT_CONVERGED, PULL, REASONS,
                                                 TORSION, arm_radius, explain,
                                                 friction_shortfall)
-from phri_spring.physics.solver import solve
+from phri_spring.physics.contact.solver import solve
 
 MU = 0.5
 R = 0.045
@@ -173,7 +173,7 @@ def test_coupled_ring_axial_force_beyond_capacity():
     # a coupled ring whose compliance couples no normal dof to a tangential one: an axial
     # force leaves every normal force at the strap's f0 (symmetry), so friction holds at
     # most mu n f0 of it, as for the spring ring
-    from phri_spring.physics.coupled import build_coupled_model
+    from phri_spring.physics.continuum.coupled import build_coupled_model
 
     n = 8
     g = cuff_geometry([0.0], R, 0.025, 0.0, 360.0 / n, n)
@@ -198,8 +198,8 @@ def test_the_capacity_of_a_coupled_arm_uses_its_bonded_normal_forces():
     # the reasons' capacity takes the normal forces of bonded ties (docs/model.md 12.7); the
     # coupled arm without friction runs its lift-off cone, which a push that lifts patches
     # off tells apart
-    from phri_spring.physics.coupled import build_coupled_model
-    from phri_spring.physics.no_equilibrium import _bonded_normal_sum
+    from phri_spring.physics.continuum.coupled import build_coupled_model
+    from phri_spring.physics.contact.no_equilibrium import _bonded_normal_sum
 
     n = 8
     g = cuff_geometry([0.0], R, 0.025, 0.0, 360.0 / n, n)

@@ -17,8 +17,8 @@ import yaml
 
 from conftest import REPO, one_line
 from phri_spring.errors import ConfigError
-from phri_spring.io import study as io_study
-from phri_spring.io.study import load_study
+from phri_spring.io.config import study as io_study
+from phri_spring.io.config.study import load_study
 from phri_spring.objectives import (OBJECTIVE_BY_NAME, OBJECTIVE_TABLE, OBJECTIVES,
                                     objectives_footnote, objectives_markdown)
 
@@ -37,7 +37,8 @@ def test_every_objective_has_a_unit_a_sense_a_description_and_a_function():
 
 
 def test_the_study_file_and_the_evaluation_read_the_same_table():
-    from phri_spring.workflows import design, design_objectives
+    from phri_spring.workflows.design import study as design
+    from phri_spring.workflows.design import objectives as design_objectives
 
     assert io_study.OBJECTIVES is OBJECTIVES
     assert design.OBJECTIVES is OBJECTIVES

@@ -22,7 +22,7 @@ import pandas as pd
 import pytest
 
 from phri_spring.io.config import config_from_dict
-from phri_spring.physics.solver import solve
+from phri_spring.physics.contact.solver import solve
 
 from conftest import (REPO, assert_one_line_error, cached_identification_only, run_phri,
                       small_human_cuff, stderr_of, write_yaml)
@@ -52,8 +52,8 @@ def _needs_fe():
 
 def test_ogden_with_alpha_2_is_the_neo_hookean_fe():
     _needs_fe()
-    from phri_spring.physics import fe_hyper as fh
-    from phri_spring.physics.geometry import cuff_geometry
+    from phri_spring.physics.hyperelastic import fe as fh
+    from phri_spring.physics.cuff.geometry import cuff_geometry
 
     g = cuff_geometry([0.0], 0.045, 0.025, 75.0, 35.0, 5)
     u = np.array([0.001, -0.006, 0.0005, 0.02, -0.01, 0.05])
@@ -74,8 +74,8 @@ def test_ogden_with_alpha_2_is_the_neo_hookean_fe():
 def identified(tmp_path_factory):
     """(model, its Ogden FE, the cache folder, config): identified once for the module."""
     _needs_fe()
-    from phri_spring.io import hyper_reduction as store
-    from phri_spring.physics import fe_hyper as fh
+    from phri_spring.io.cache import hyper_reduction as store
+    from phri_spring.physics.hyperelastic import fe as fh
     from phri_spring.workflows.common import coupled_model
 
     cache = tmp_path_factory.mktemp("cache")
@@ -90,7 +90,7 @@ def identified(tmp_path_factory):
 
 
 def test_identified_ogden_model_matches_its_fe_off_its_rays(identified):
-    from phri_spring.physics import fe_hyper as fh
+    from phri_spring.physics.hyperelastic import fe as fh
 
     model, fe, cache, _ = identified
     assert model.continuum_law == "ogden"
@@ -114,8 +114,8 @@ def test_identified_ogden_model_matches_its_fe_off_its_rays(identified):
 
 
 def test_reduction_keys_tell_the_laws_apart():
-    from phri_spring.io.hyper_reduction import reduction_key
-    from phri_spring.physics.geometry import cuff_geometry
+    from phri_spring.io.cache.hyper_reduction import reduction_key
+    from phri_spring.physics.cuff.geometry import cuff_geometry
 
     g = cuff_geometry([0.0], 0.045, 0.025, 75.0, 35.0, 5)
     args = (g, 0.025, 30e3, 0.45, (15.0, "hoop", None, None))
@@ -141,7 +141,7 @@ def test_exponent_from_the_indenter_curve_uses_the_indenter_test_and_is_cached(
     """Without ogden_alpha, the exponent comes from tissue.stiffening through the punch FE
     (replaced here by a recorder: tests/test_fe_punch_ogden.py checks the FE itself), with
     the indenter's radius and the force where the pain threshold is reached under it."""
-    from phri_spring.physics import fe_punch_ogden
+    from phri_spring.physics.hyperelastic import punch_ogden as fe_punch_ogden
     from phri_spring.workflows.hyper_arm import ogden_exponent
 
     calls = []
@@ -167,7 +167,7 @@ def test_exponent_from_the_indenter_curve_uses_the_indenter_test_and_is_cached(
 
 
 def test_an_indenter_curve_no_exponent_matches_is_one_line(tmp_path, monkeypatch):
-    from phri_spring.physics import fe_punch_ogden
+    from phri_spring.physics.hyperelastic import punch_ogden as fe_punch_ogden
 
     def fake(*a, **k):
         raise ValueError("the Ogden law reaches beta 20-400 1/m on this layer and punch, "
@@ -215,7 +215,7 @@ def test_the_identification_shows_its_progress_on_a_terminal(tmp_path, monkeypat
     when stderr is not a terminal, as every progress line). The FE is replaced by a
     recorder that reports two rays and then fails, so no FE runs."""
     from phri_spring.errors import ConfigError
-    from phri_spring.io import hyper_reduction as store
+    from phri_spring.io.cache import hyper_reduction as store
 
     def fake(*args, progress=None, **kwargs):
         progress(1, 2)
@@ -239,7 +239,7 @@ def test_an_indenter_fe_that_fails_is_one_line_naming_the_exponent(tmp_path, mon
     """The indenter FE that identifies alpha stops before the fit range (an element
     inverts): one line that says to give tissue.continuum.ogden_alpha instead."""
     from phri_spring.errors import ConvergenceError
-    from phri_spring.physics import fe_punch_ogden
+    from phri_spring.physics.hyperelastic import punch_ogden as fe_punch_ogden
 
     def fake(*a, **k):
         raise ConvergenceError("the punch curve stopped at 4.2 mm (element inverted)")
@@ -259,8 +259,8 @@ def test_a_reduction_that_misses_its_held_out_rays_is_refused(tmp_path, monkeypa
     """A fit whose held-out patch forces are more than 5 % off (replaced here: no FE runs)
     is refused in one line naming the range; the identification is cached all the same."""
     _needs_fe()
-    from phri_spring.io import hyper_reduction as store
-    from phri_spring.physics import hyper_reduced as hr
+    from phri_spring.io.cache import hyper_reduction as store
+    from phri_spring.physics.hyperelastic import reduced as hr
 
     def fake(cuff, linear, *, max_force, max_moment, rays, progress=None, **kw):
         n, K = cuff.geometry.n, len(hr.EXPONENTS)

@@ -20,10 +20,10 @@ import scipy.sparse.linalg as spla
 import yaml
 
 from phri_spring.errors import ConfigError, ModelInputError
-from phri_spring.io import surface_stiffness as ss
-from phri_spring.physics import fe_tissue as fe
-from phri_spring.physics.fe_assembly import _facet_arrays
-from phri_spring.physics.geometry import cuff_geometry, rigid_body_map
+from phri_spring.io.cache import surface_stiffness as ss
+from phri_spring.physics.continuum import tissue as fe
+from phri_spring.physics.continuum.assembly import _facet_arrays
+from phri_spring.physics.cuff.geometry import cuff_geometry, rigid_body_map
 
 from conftest import HARMONY_CONFIG, run_phri as run, stderr_of
 
@@ -225,7 +225,7 @@ def test_the_command_line_names_the_key(tmp_path):
 @pytest.mark.parametrize("gap", [0.0, 0.002])
 def test_mesh_size_is_that_of_the_built_mesh(gap):
     """fe_mesh.mesh_size (what the memory check can size the FE by) counts the gap's strips."""
-    from phri_spring.physics.fe_mesh import periodic_map, mesh_size
+    from phri_spring.physics.continuum.mesh import periodic_map, mesh_size
 
     tm = fe.build_mesh(TILED, 0.01, 2, 1.0, gap)
     _, n_nodes = periodic_map(tm.comp, 0.01)

@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 from conftest import harmony_dict, one_line, run_phri
 from phri_spring.errors import PhriError
 from phri_spring.io.config import config_from_dict
-from phri_spring.physics.patches import PatchLayout, check_layout, hoop_shares, mat_layout
-from phri_spring.physics.solver import solve
+from phri_spring.physics.cuff.patches import PatchLayout, check_layout, hoop_shares, mat_layout
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import model_from_config
 
 
@@ -247,7 +247,7 @@ def test_free_layout_figures_draw_one_rectangle_per_patch():
 
 def test_simulate_plot_of_a_free_layout(tmp_path):
     from phri_spring.reports.simulate_figures import simulate_figure
-    from phri_spring.workflows.plotting import MaxPool
+    from phri_spring.workflows.plots.maxpool import MaxPool
 
     lay = config_from_dict(free_dict()).patches
     pool = MaxPool(5, total=4)
@@ -349,8 +349,8 @@ def test_load_path_split_equals_the_per_element_sum(which):
     """The load split of a mat and of the grid (force_parts, and the summary's fast
     transmitted sums) against the plain sum of every element's normal and shear force
     vectors."""
-    from phri_spring.physics.load_path import force_parts
-    from phri_spring.physics.solver import normal_forces
+    from phri_spring.physics.contact.load_path import force_parts
+    from phri_spring.physics.contact.solver import normal_forces
 
     cfg = config_from_dict(mat_dict(4, 8) if which == "mat" else harmony_dict())
     model = model_from_config(cfg)
@@ -367,7 +367,7 @@ def test_load_path_split_equals_the_per_element_sum(which):
     np.testing.assert_allclose(force_parts(model, sol.u, S), want,
                                atol=1e-9 * np.abs(want).max())
     # the summary's sums of magnitudes, by kind, from the fast rows
-    from phri_spring.physics.load_path import shear_rows, transmitted_sums
+    from phri_spring.physics.contact.load_path import shear_rows, transmitted_sums
 
     mags = np.linalg.norm(s, axis=-1)
     want_sums = np.array([fn.sum(), np.where(S, mags, 0).sum(), np.where(S, 0, mags).sum()])

@@ -17,12 +17,12 @@ import reference_model as ref
 from conftest import HARMONY_CONFIG, harmony_dict
 from phri_spring.errors import ConfigError
 from phri_spring.io.config import config_from_dict, load_config
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.loadcell import (cuff_to_loadcell, loadcell_to_cuff,
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.cuff.loadcell import (cuff_to_loadcell, loadcell_to_cuff,
                                           rotation_from_euler_xyz)
-from phri_spring.physics.model import build_model
-from phri_spring.physics.solver import Solver, shear_forces, solve
-from phri_spring.physics.springs import indenter_to_element
+from phri_spring.physics.springs.model import build_model
+from phri_spring.physics.contact.solver import Solver, shear_forces, solve
+from phri_spring.physics.springs.stiffness import indenter_to_element
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 
 ETA_045 = 1.0 / (2.0 * 1.45)          # default shear ratio, nu = 0.45

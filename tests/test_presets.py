@@ -18,9 +18,9 @@ import yaml
 from reference_layer import kappa_integral_equation
 
 from phri_spring.io.config import load_config
-from phri_spring.physics.springs import shear_ratio_from_poisson
+from phri_spring.physics.springs.stiffness import shear_ratio_from_poisson
 from phri_spring.workflows import common
-from phri_spring.workflows.stiffness import interface_stiffness_report
+from phri_spring.workflows.stiffness.matrix import interface_stiffness_report
 
 ROOT = Path(__file__).resolve().parent.parent
 HUMAN = ROOT / "configs" / "human_upper_arm.yaml"
@@ -88,7 +88,7 @@ def test_human_preset_indenter_value_gives_back_its_modulus_through_the_punch_fe
     """The coupled model's own conversion (docs/model.md section 10.5) of the preset's
     indenter value returns the preset's modulus: both arms describe one tissue."""
     pytest.importorskip("skfem")
-    from phri_spring.physics.fe_tissue import modulus_from_indenter
+    from phri_spring.physics.continuum.tissue import modulus_from_indenter
 
     cfg = load_config(HUMAN)
     E = modulus_from_indenter(float(cfg.tissue_stiffness[0]), cfg.continuum_thickness,

@@ -13,9 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from phri_spring.physics.coupled import rigid_patch_map
-from phri_spring.physics.fe_tissue import rigid_cuff_map
-from phri_spring.physics.geometry import element_jacobians, rigid_body_map, skew
+from phri_spring.physics.continuum.coupled import rigid_patch_map
+from phri_spring.physics.continuum.tissue import rigid_cuff_map
+from phri_spring.physics.cuff.geometry import element_jacobians, rigid_body_map, skew
 
 _coord = st.floats(-1.0, 1.0, allow_nan=False, allow_infinity=False)
 points = st.integers(1, 6).flatmap(lambda n: arrays(float, (n, 3), elements=_coord))

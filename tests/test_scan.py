@@ -17,7 +17,7 @@ from hypothesis import given, settings, strategies as st
 
 from phri_spring.errors import ConfigError, DataError, UsageError
 from phri_spring.io.scan import load_scan, read_mesh, scan_elements
-from phri_spring.physics.scan_sections import clipped_area, scan_element_geometry
+from phri_spring.physics.limb.scan_sections import clipped_area, scan_element_geometry
 
 trimesh = pytest.importorskip("trimesh")
 

@@ -22,7 +22,7 @@ import reference_sections as rs
 from conftest import assert_one_line_error, harmony_dict, run_phri, write_yaml
 from phri_spring.errors import ConfigError
 from phri_spring.io.config import config_from_dict, load_config
-from phri_spring.physics.solver import solve
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 
 pytest.importorskip("trimesh")
@@ -356,7 +356,7 @@ def test_the_example_config_simulates_the_example_log(tmp_path):
 def test_collinear_points_do_not_change_the_tangent(n, bumps, seed, h):
     """A plane's cut through facet diagonals adds points on straight outline pieces: the
     smoothed tangent angle (and so every turning) is that of the outline without them."""
-    from phri_spring.physics.scan_sections import tangent_angle
+    from phri_spring.physics.limb.scan_sections import tangent_angle
 
     rng = np.random.default_rng(seed)
     t = np.sort(rng.uniform(0, 2 * np.pi, n))

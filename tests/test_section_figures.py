@@ -15,11 +15,11 @@ from hypothesis import strategies as st
 
 from conftest import HARMONY_CONFIG, REPO, one_line
 from phri_cli.main import phri
-from phri_spring.physics.geometry import cuff_geometry, section_geometry
-from phri_spring.physics.sections import EllipseSection, OutlineSection, outlines_at
+from phri_spring.physics.cuff.geometry import cuff_geometry, section_geometry
+from phri_spring.physics.limb.sections import EllipseSection, OutlineSection, outlines_at
 from phri_spring.reports.section_figures import (ARC_GID, BAND_GID, MAX_PANELS, OUTLINE_GID,
                                                  SectionPanel, element_arc, section_figure)
-from phri_spring.workflows.section_plot import patch_bands, section_panels, section_path
+from phri_spring.workflows.plots.section import patch_bands, section_panels, section_path
 
 EXAMPLE = REPO / "examples" / "wrench_log.csv"
 K = 256
@@ -188,7 +188,7 @@ def test_free_layout_bands(tmp_path):
 
 def test_scan_geometry():
     from phri_spring.io.config import load_config
-    from phri_spring.io.config_geometry import config_outlines
+    from phri_spring.io.config.geometry import config_outlines
 
     cfg = load_config(REPO / "examples" / "scan" / "upper_arm_scan.yaml")
     geom = cfg.geometry()
@@ -233,7 +233,7 @@ def test_cli_refuses_a_section_path_over_an_input(tmp_path):
 
 def test_maxpool_keeps_the_peak_samples_forces(tmp_path):
     from phri_spring.io.config import load_config
-    from phri_spring.workflows.plotting import MaxPool
+    from phri_spring.workflows.plots.maxpool import MaxPool
     from phri_spring.workflows.simulate import simulate_file
 
     log = tmp_path / "log.csv"
@@ -296,8 +296,8 @@ def test_dashboard_section_view(tmp_path):
     import subprocess
 
     from phri_spring.io.config import load_config
-    from phri_spring.io.live_dashboard import page_text
-    from phri_spring.workflows.section_plot import live_section_meta
+    from phri_spring.io.live.dashboard import page_text
+    from phri_spring.workflows.plots.section import live_section_meta
 
     cfg = load_config(HARMONY_CONFIG)
     geom = cfg.geometry()
@@ -339,8 +339,8 @@ def test_live_section_meta(name):
     import json
 
     from phri_spring.io.config import load_config
-    from phri_spring.io.config_geometry import config_outlines
-    from phri_spring.workflows.section_plot import live_section_meta
+    from phri_spring.io.config.geometry import config_outlines
+    from phri_spring.workflows.plots.section import live_section_meta
 
     cfg = load_config(REPO / name)
     geom = cfg.geometry()

@@ -20,10 +20,10 @@ import reference_model as ref
 import reference_sections as rs
 from conftest import assert_one_line_error, harmony_dict, run_phri, write_yaml
 from phri_spring.io.config import config_from_dict
-from phri_spring.physics.geometry import CuffGeometry, section_geometry
-from phri_spring.physics.model import build_model
-from phri_spring.physics.sections import EllipseSection, OutlineSection
-from phri_spring.physics.solver import solve
+from phri_spring.physics.cuff.geometry import CuffGeometry, section_geometry
+from phri_spring.physics.springs.model import build_model
+from phri_spring.physics.limb.sections import EllipseSection, OutlineSection
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import model_from_config
 
 SETTINGS = dict(deadline=None, suppress_health_check=[HealthCheck.too_slow])

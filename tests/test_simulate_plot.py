@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from conftest import HARMONY_CONFIG, REPO, one_line
 from phri_cli.main import phri
-from phri_spring.workflows.plotting import MaxPool
+from phri_spring.workflows.plots.maxpool import MaxPool
 
 EXAMPLE = REPO / "examples" / "wrench_log.csv"
 

@@ -10,9 +10,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from phri_spring.physics import solver as sv
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact import solver as sv
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
 from phri_spring.synthetic.wrench import smooth_random_log
 
 

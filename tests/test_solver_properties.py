@@ -17,9 +17,9 @@ from hypothesis import strategies as st
 
 import reference_model as ref
 from conftest import build_both, physics_cases, reference_of, wrenches
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model
-from phri_spring.physics.solver import Solver, shear_forces, solve
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model
+from phri_spring.physics.contact.solver import Solver, shear_forces, solve
 
 SETTINGS = dict(deadline=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])

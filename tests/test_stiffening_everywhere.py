@@ -22,10 +22,10 @@ import phri_spring as ps
 from conftest import HARMONY_DICT, REPO, assert_one_line_error, example_log_lines, run_phri, \
     stderr_of
 from phri_spring.io.config import load_config
-from phri_spring.workflows.uncertain_draws import (UncertainInputs, config_at, draw_configs,
+from phri_spring.workflows.uncertainty.draws import (UncertainInputs, config_at, draw_configs,
                                                    perturbed_text, sobol_inputs,
                                                    uncertain_inputs)
-from phri_spring.workflows.uncertainty import monte_carlo
+from phri_spring.workflows.uncertainty.run import monte_carlo
 
 BETA = 150.0
 LAW = f"exponential tissue law (beta {BETA:g} 1/m)"

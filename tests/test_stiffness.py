@@ -20,10 +20,10 @@ from hypothesis import strategies as st
 
 from phri_spring.errors import ConfigError, UsageError
 from phri_spring.io.config import config_from_dict, load_config
-from phri_spring.physics.loadcell import loadcell_to_cuff
-from phri_spring.physics.solver import solve
+from phri_spring.physics.cuff.loadcell import loadcell_to_cuff
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import ARMS, model_from_config
-from phri_spring.workflows.stiffness import (PEOPLE_UNITS, SI_UNITS, interface_stiffness_report,
+from phri_spring.workflows.stiffness.matrix import (PEOPLE_UNITS, SI_UNITS, interface_stiffness_report,
                                              to_people_units)
 
 # --------------------------------------------------------------------------- a test config

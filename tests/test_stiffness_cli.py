@@ -68,8 +68,8 @@ def test_json_is_one_object_with_the_independent_K(cfg_path, arm):
 def test_json_K_against_the_solver(cfg_path):
     """A small wrench dW read by the load cell moves the load-cell point by K^-1 dW."""
     from phri_spring.io.config import load_config
-    from phri_spring.physics.loadcell import loadcell_to_cuff
-    from phri_spring.physics.solver import solve
+    from phri_spring.physics.cuff.loadcell import loadcell_to_cuff
+    from phri_spring.physics.contact.solver import solve
     from phri_spring.workflows.common import model_from_config
 
     K = np.array(json.loads(stdout_of(run("stiffness", cfg_path, "--json")))["K"])

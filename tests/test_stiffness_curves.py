@@ -23,10 +23,10 @@ from conftest import assert_one_line_error, run_phri as run
 from test_stiffness import (CFG, cfg_of, fd_loadcell_map, loadcell_point_displacement,
                             rotation_xyz, spec_cuff_stiffness)
 from phri_spring.errors import UsageError
-from phri_spring.physics.load_sweep import axis_loads, loadcell_motion
+from phri_spring.physics.response.sweep import axis_loads, loadcell_motion
 from phri_spring.reports.stiffness_curves_figure import stiffness_curves_figure
-from phri_spring.workflows.stiffness import interface_stiffness_report
-from phri_spring.workflows.stiffness_curves import (CSV_COLUMNS, CSV_NAME, FIGURE_NAME,
+from phri_spring.workflows.stiffness.matrix import interface_stiffness_report
+from phri_spring.workflows.stiffness.curves import (CSV_COLUMNS, CSV_NAME, FIGURE_NAME,
                                                     human_reference_bands, stiffness_curves)
 
 #: the test cuff with its load cell aligned with the cuff, 70 mm below the arm's axis

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from phri_spring.errors import DataError, UsageError
-from phri_spring.io import surface_stiffness as ss
-from phri_spring.physics import fe_tissue
-from phri_spring.physics.geometry import cuff_geometry
+from phri_spring.io.cache import surface_stiffness as ss
+from phri_spring.physics.continuum import tissue as fe_tissue
+from phri_spring.physics.cuff.geometry import cuff_geometry
 
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 
@@ -144,8 +144,8 @@ def test_missing_scikit_fem_is_one_line_naming_the_extra(monkeypatch, tmp_path):
 
 
 def test_importing_the_package_does_not_import_skfem():
-    code = ("import sys, phri_spring, phri_spring.io.surface_stiffness, "
-            "phri_spring.physics.fe_tissue; print('skfem' in sys.modules)")
+    code = ("import sys, phri_spring, phri_spring.io.cache.surface_stiffness, "
+            "phri_spring.physics.continuum.tissue; print('skfem' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"

@@ -19,10 +19,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize
 
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solver import Solver, solve, solve_per_sample
-from phri_spring.physics.tissue_laws import (TISSUE_LAWS, LawParameter, SeriesElement, TissueLaw,
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solver import Solver, solve, solve_per_sample
+from phri_spring.physics.laws import (TISSUE_LAWS, LawParameter, SeriesElement, TissueLaw,
                                              make_law, register_law)
 
 from conftest import HARMONY_CONFIG, run_phri, stderr_of

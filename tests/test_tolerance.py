@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import HARMONY_CONFIG, assert_one_line_error, harmony_dict, run_phri
-from phri_spring.physics.tolerance import (MMHG_KPA, TOLERANCE_CURVES, Exposure,
+from phri_spring.physics.response.tolerance import (MMHG_KPA, TOLERANCE_CURVES, Exposure,
                                            ToleranceCurve, tolerance_curve)
 
 LABELS = [f"{r}{j}" for r in "ABC" for j in range(7)]
@@ -327,7 +327,7 @@ def test_bad_tolerance_options_are_one_line(tmp_path):
 # --------------------------------------------------------------------------- compare
 def test_compare_exposure_matches_plain_loops(tmp_path):
     from phri_spring.workflows.common import model_from_config
-    from phri_spring.workflows.compare import compare, write_compare
+    from phri_spring.workflows.compare.run import compare, write_compare
 
     repo = Path(__file__).resolve().parents[1]
     res = compare(HARMONY_CONFIG, repo / "examples" / "experiment" / "manifest.yaml",
@@ -359,7 +359,7 @@ def test_compare_exposure_matches_plain_loops(tmp_path):
 def test_design_dose_objective_matches_plain_loops_over_every_sample(tmp_path):
     from phri_spring.io.config import load_config
     from phri_spring.workflows.common import model_from_config
-    from phri_spring.workflows.design_objectives import evaluate_design, load_set
+    from phri_spring.workflows.design.objectives import evaluate_design, load_set
     from phri_spring.workflows.simulate import simulate
 
     rng = np.random.default_rng(5)
@@ -410,7 +410,7 @@ def test_design_dose_objective_matches_plain_loops_over_every_sample(tmp_path):
 
 def test_a_study_minimising_the_dose_needs_a_curve(tmp_path):
     from phri_spring.errors import ConfigError
-    from phri_spring.workflows.design import prepare_study
+    from phri_spring.workflows.design.study import prepare_study
 
     (tmp_path / "base.yaml").write_text(yaml.safe_dump(harmony_dict(), sort_keys=False))
     _log(tmp_path / "log.csv", n=10)

@@ -24,7 +24,7 @@ import reference_model as ref
 from conftest import harmony_dict, one_line
 from phri_cli.main import phri
 from phri_spring.io.config import config_from_dict, load_config
-from phri_spring.workflows.uncertainty import (UncertainInputs, monte_carlo, parse_sd,
+from phri_spring.workflows.uncertainty.run import (UncertainInputs, monte_carlo, parse_sd,
                                                uncertain_inputs)
 
 T_MEAN, T_SD = 30.0, 1.5
@@ -143,7 +143,7 @@ def ref_labels():
 def test_study_uncertainty_and_sobol(tmp_path):
     pytest.importorskip("SALib")
     from test_design import make_study
-    from phri_spring.workflows.design import run_study
+    from phri_spring.workflows.design.study import run_study
 
     path = make_study(tmp_path / "s", n=60, vary={"strap.tension": {"values": [10, 20]}},
                       constraints={},
@@ -206,7 +206,7 @@ def test_simulate_uncertainty_needs_absolute_forces(tmp_path):
 
 
 def test_bands_figure():
-    from phri_spring.reports.uncertainty_figures import bands_figure
+    from phri_spring.reports.uncertainty.figures import bands_figure
 
     meas = np.zeros((3, 4))
     P = np.sort(np.random.default_rng(0).normal(size=(3, 3, 4)), axis=0)
@@ -226,7 +226,7 @@ def _long_log(m, seed=0):
 def test_streamed_blocks_are_the_array_percentiles(linear_case):
     # the log read in chunks of odd sizes (none a block): the same percentiles to the bit as
     # the whole log at once (block boundaries and noise streams do not depend on the reading)
-    from phri_spring.workflows.uncertainty import MonteCarloStream
+    from phri_spring.workflows.uncertainty.run import MonteCarloStream
 
     _, cfg, inputs = linear_case
     time, w = _long_log(3000)
@@ -248,7 +248,7 @@ def test_simulate_uncertainty_streams_the_log(tmp_path, linear_case, fmt):
     # phri simulate --uncertainty writes block by block: the table holds the array
     # percentiles (Parquet: every bit; CSV: to its 1e-6 N decimals), in write_monte_carlo's
     # columns
-    from phri_spring.workflows.uncertainty import simulate_uncertainty_file, write_monte_carlo
+    from phri_spring.workflows.uncertainty.run import simulate_uncertainty_file, write_monte_carlo
 
     d, cfg, inputs = linear_case
     cfg_path = tmp_path / "c.yaml"

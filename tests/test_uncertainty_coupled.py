@@ -26,9 +26,9 @@ from scipy.stats import norm
 from conftest import harmony_dict, one_line
 from phri_cli.main import phri
 from phri_spring.io.config import config_from_dict
-from phri_spring.physics.solver import solve
+from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import cuff_wrench, geometry_from_config
-from phri_spring.workflows.uncertainty import (PERCENTILES, MonteCarloStream, UncertainInputs,
+from phri_spring.workflows.uncertainty.run import (PERCENTILES, MonteCarloStream, UncertainInputs,
                                                monte_carlo, uncertain_inputs)
 
 pytest.importorskip("skfem")
@@ -59,8 +59,8 @@ def coupled(tmp_path_factory):
     cache = tmp_path_factory.mktemp("fe-cache")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("PHRI_SPRING_CACHE", str(cache))
-        from phri_spring.io.surface_stiffness import load_or_build
-        from phri_spring.physics.coupled import build_coupled_model
+        from phri_spring.io.cache.surface_stiffness import load_or_build
+        from phri_spring.physics.continuum.coupled import build_coupled_model
 
         cfg = config_from_dict(small_coupled_dict())
         g = geometry_from_config(cfg)
@@ -80,7 +80,7 @@ def coupled(tmp_path_factory):
 
 def test_coupled_percentiles_are_those_of_the_drawn_moduli(coupled):
     # fails before the fix: the coupled arm ignored the scatter (p5 = p95 everywhere)
-    from phri_spring.workflows.uncertain_draws import draw_configs
+    from phri_spring.workflows.uncertainty.draws import draw_configs
 
     cfg, forces_at = coupled
     inputs = uncertain_inputs(cfg, tissue_sd=REL_SD)
@@ -145,7 +145,7 @@ def test_simulate_names_what_scattered_for_the_coupled_arm(coupled, tmp_path):
 
 
 def test_what_scatters_for_each_arm():
-    from phri_spring.workflows.uncertain_draws import (modulus_sd, perturbed_text,
+    from phri_spring.workflows.uncertainty.draws import (modulus_sd, perturbed_text,
                                                        sobol_inputs, tissue_route)
 
     cfg = config_from_dict(harmony_dict())
@@ -187,7 +187,7 @@ def test_rigid_arm_with_only_tissue_scatter_has_no_spread():
 
 # --------------------------------------------------------------------------- Sobol
 def _sobol_setup():
-    from phri_spring.workflows.design_objectives import LoadSet
+    from phri_spring.workflows.design.objectives import LoadSet
 
     cfg = config_from_dict(harmony_dict())
     w = np.array([[0.0, 0.0, 20.0, 0.0, 0.0, 0.0], [5.0, -8.0, 10.0, 0.2, 0.0, 0.1]])
@@ -202,8 +202,8 @@ def test_sobol_with_an_evaluation_that_did_not_converge_is_unavailable(monkeypat
     pytest.importorskip("SALib")
     from SALib.sample import sobol as sobol_sample
 
-    from phri_spring.io.study import UncertaintySpec
-    from phri_spring.workflows import design_uncertainty as uncertainty
+    from phri_spring.io.config.study import UncertaintySpec
+    from phri_spring.workflows.design import uncertainty
 
     cfg, loads, inputs = _sobol_setup()
     n_base = 8

@@ -15,7 +15,7 @@ from importlib import resources
 from pathlib import Path
 
 from ..errors import UsageError
-from .atomic import atomic_file, check_output_path
+from .outputs.atomic import atomic_file, check_output_path
 
 __all__ = ["DEFAULT_PRESET", "preset_names", "preset_text", "preset_title", "preset_file",
            "starter_text", "check_starter_path", "write_starter_config"]

@@ -9,7 +9,7 @@ its +z is x cross y.
 
 :func:`load_scan` returns the mesh as plain arrays in metres in the cuff frame;
 :func:`scan_elements` goes on to the elements' points, normals, areas and turnings
-(:func:`phri_spring.physics.scan_sections.scan_element_geometry`). A file that is not a mesh,
+(:func:`phri_spring.physics.limb.scan_sections.scan_element_geometry`). A file that is not a mesh,
 a mesh that is too large, an implausible size for the unit, a bad frame, or a scan the
 elements cannot be placed on is refused in one line naming the file or the key.
 """
@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError, ConfigTypeError, DataError, ModelInputError, UsageError
-from ..physics.scan_sections import (ScanElements, prepare_scan_mesh,
+from ..physics.limb.scan_sections import (ScanElements, prepare_scan_mesh,
                                      scan_element_geometry)
 
 __all__ = ["SCAN_KEY", "SCAN_KEYS", "UNITS", "MAX_TRIANGLES", "PLAUSIBLE_SIZE_M", "MESH_SUFFIXES",
@@ -341,7 +341,7 @@ def scan_cuff(scan_config: dict, rows_x, row_widths, theta, span, config_dir="."
     Raises as :func:`scan_elements`; a strap plane that misses the scan or is not closed
     around the axis is a :class:`DataError` naming the file and ``strap.axial_position``.
     """
-    from ..physics.scan_strap import scan_strap_section
+    from ..physics.limb.scan_strap import scan_strap_section
 
     _, smoothing = _scan_config(scan_config, config_path)
     scan = load_scan(scan_config, config_dir, config_path=config_path)

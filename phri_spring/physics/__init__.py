@@ -1,31 +1,17 @@
 """Physics layer: pure numpy/scipy functions on arrays, SI units.
 
-No file or config access and no printing happens here. Modules:
+No file or config access and no printing happens here (numba, when installed, compiles
+one loop of :mod:`.history`). Folders name concepts, modules name variants:
 
-- :mod:`~phri_spring.physics.geometry`   element geometry of a cylindrical cuff
-- :mod:`~phri_spring.physics.springs`    tissue and cuff springs, series and shear stiffness
-- :mod:`~phri_spring.physics.preload`    strap pretension (hoop and handles models)
-- :mod:`~phri_spring.physics.loadcell`   load-cell wrench to cuff-frame wrench
-- :mod:`~phri_spring.physics.model`      the assembled spring network (arrays)
-- :mod:`~phri_spring.physics.tissue_laws` tissue laws (plug-ins), the series element with the cuff
-- :mod:`~phri_spring.physics.spring_newton` the spring model's equilibrium with a nonlinear law
-- :mod:`~phri_spring.physics.active_set` the active-set kernel every contact model solves with
-- :mod:`~phri_spring.physics.solver`     the spring model's contact system, batch and single-sample solvers
-- :mod:`~phri_spring.physics.coupled`    the coupled tissue model (continuum condensed onto the patches)
-- :mod:`~phri_spring.physics.fe_tissue`  built-in 3D FE of the tissue layer condensed onto the patches
-- :mod:`~phri_spring.physics.fe_assembly` the FE's assembly (mesh to stiffness), shared by the FE models
-- :mod:`~phri_spring.physics.fe_mesh`    the FE's structured cylindrical mesh
-- :mod:`~phri_spring.physics.fe_punch`   flat punch on a bonded layer (indenter stiffness to modulus)
-- :mod:`~phri_spring.physics.fe_reference` direct FE of a rigid cuff (the validation reference)
-- :mod:`~phri_spring.physics.stiffness`  interface stiffness at the load cell
-- :mod:`~phri_spring.physics.load_sweep` load sweeps along and about the load-cell axes (interface curves)
-- :mod:`~phri_spring.physics.indentation` indenter force-displacement analysis (linear fit)
-- :mod:`~phri_spring.physics.indentation_exponential` the exponential-law fit of indenter curves
-- :mod:`~phri_spring.physics.indentation_signal` indenter signal windows (contact, unloading branch)
-- :mod:`~phri_spring.physics.indentation_qlv` the quasi-linear viscoelastic fit of indenter trials over time
-- :mod:`~phri_spring.physics.indentation_qlv_window` a trial's contact window for it, identifiability
-- :mod:`~phri_spring.physics.metrics`    RMSE and zeroing used by comparisons
-- :mod:`~phri_spring.physics.relaxation` QLV relaxation functions (Prony series), their recursion
-- :mod:`~phri_spring.physics.history`    spring models solved in time: relaxing tissue, activation
-- :mod:`~phri_spring.physics.history_kernel` the sample-by-sample loop behind it (numba when installed)
+- :mod:`~phri_spring.physics.contact` Contact: the active-set kernel, the batch and single-sample solvers, the solution, what carries the load, why a sample has no answer
+- :mod:`~phri_spring.physics.continuum` The coupled arm's linear continuum: the condensed tissue layer, its built-in FE (mesh, assembly, punch) and the FE references that validate it
+- :mod:`~phri_spring.physics.cuff` The cuff: element geometry on the limb, the load cell's frame, the strap's preload, sensor patches
+- :mod:`~phri_spring.physics.friction` Contact that slides: Coulomb friction along the loading path (the interface's form, its states, the events, the normal response)
+- :mod:`~phri_spring.physics.history` Time at the interface: relaxation functions (QLV) and spring models solved sample by sample with relaxing tissue and muscle activation
+- :mod:`~phri_spring.physics.hyperelastic` The tissue layer at finite strain: neo-Hookean and Ogden FE, the reduced model the coupled arm solves with, its symmetry
+- :mod:`~phri_spring.physics.indentation` Indenter trials to tissue parameters: the signal windows, the linear, exponential and quasi-linear viscoelastic fits
+- :mod:`~phri_spring.physics.laws` Tissue laws: the normal force of an element's tissue for a compression, as plug-ins
+- :mod:`~phri_spring.physics.limb` Limb shapes: cross-sections and taper, sections and strap handles on a 3D scan
+- :mod:`~phri_spring.physics.response` What the interface does: its stiffness, load sweeps, comparison metrics, and how long a pressure is tolerated
+- :mod:`~phri_spring.physics.springs` The paper's spring network: tissue and cuff springs, the assembled model, its equilibrium with a nonlinear law, its per-element outputs
 """

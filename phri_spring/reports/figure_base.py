@@ -3,9 +3,9 @@
 The font sizes every report figure is drawn with (:func:`figure_style`), the colours and
 names of the arm models, the resolution of saved figures, the base class of the
 renderers that draw many figures of one layout into one figure built once
-(:class:`ReusedFigure`, used by :mod:`phri_spring.reports.compare_heatmap` and
-:mod:`phri_spring.reports.compare_figures`) and a fast PNG writer
-(:func:`write_png`). Split out of :mod:`phri_spring.reports.compare_figures`,
+(:class:`ReusedFigure`, used by :mod:`phri_spring.reports.compare.heatmap` and
+:mod:`phri_spring.reports.compare.figures`) and a fast PNG writer
+(:func:`write_png`). Split out of :mod:`phri_spring.reports.compare.figures`,
 which re-exports every public name. Only :class:`matplotlib.figure.Figure` is
 used, never pyplot.
 """

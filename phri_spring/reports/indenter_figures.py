@@ -18,9 +18,9 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from ..io.indenter import split_label
-from ..physics.indentation import LocationFit, TrialFit, location_statistics
-from ..physics.indentation_exponential import ExponentialFit, ExponentialLocationFit
+from ..io.recordings.indenter import split_label
+from ..physics.indentation.linear import LocationFit, TrialFit, location_statistics
+from ..physics.indentation.exponential import ExponentialFit, ExponentialLocationFit
 
 __all__ = ["force_displacement_grid", "indentation_response", "stiffness_map", "map_grid"]
 

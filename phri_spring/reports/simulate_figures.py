@@ -20,7 +20,7 @@ def simulate_figure(pooled, *, labels: Sequence[str], pain_threshold_kpa: float,
 
     Parameters
     ----------
-    pooled : phri_spring.workflows.plotting.PooledLog
+    pooled : phri_spring.workflows.plots.maxpool.PooledLog
         The log, max-pooled into k groups of consecutive samples.
     labels : sequence of str, length n
         Element labels (A0 ... C6), the heat map's rows, top to bottom.

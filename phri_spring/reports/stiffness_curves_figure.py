@@ -58,7 +58,7 @@ def stiffness_curves_figure(curves, *, title: str | None = None) -> Figure:
     Parameters
     ----------
     curves : StiffnessCurves or sequence of them
-        :class:`phri_spring.workflows.stiffness_curves.StiffnessCurves` of one config
+        :class:`phri_spring.workflows.stiffness.curves.StiffnessCurves` of one config
         (e.g. one per arm model); the axis directions and human ranges are the first's.
     title : str, optional
         Figure title; default: the config's name and the loads.

@@ -36,7 +36,7 @@ def effective_law(cfg) -> tuple:
     A law that is linear at its parameters (the exponential law with every beta 0) is
     solved as the linear law exactly, and named so.
     """
-    from ..physics.tissue_laws import TISSUE_LAWS
+    from ..physics.laws import TISSUE_LAWS
 
     cls = getattr(cfg, "tissue_law_class", None) or TISSUE_LAWS.get(cfg.tissue_law)
     if cls is None:
@@ -71,7 +71,7 @@ def values_text(values, unit: str) -> str:
 def law_text(cfg) -> str:
     """``exponential tissue law (beta 150 1/m)`` (the parameters with their units), or
     ``linear tissue law``."""
-    from ..physics.tissue_laws import TISSUE_LAWS
+    from ..physics.laws import TISSUE_LAWS
 
     name, params = effective_law(cfg)
     units = {p.key: p.unit for p in getattr(TISSUE_LAWS.get(name), "parameters", ())}
@@ -128,7 +128,7 @@ def designs_law_text(configs, arm: str) -> str:
     the laws and the range of each law parameter over the designs (a study that varies
     ``tissue.stiffening``: ``linear/exponential tissue law, varied by the study (beta
     0-400 1/m over the designs)``)."""
-    from ..physics.tissue_laws import TISSUE_LAWS
+    from ..physics.laws import TISSUE_LAWS
 
     configs = list(configs)
     texts = list(dict.fromkeys(arm_law_text(c, arm) for c in configs))

@@ -14,7 +14,7 @@ what a real FSR cuff adds: a gain error per sensor (a few percent), a
 fraction of the load carried outside the sensors (x 0.9), a zero offset that
 drifts between trials, 0.35 N noise, and no negative readings. The load cell
 reads the true wrench (converted to its axes and units with
-:func:`~phri_spring.physics.loadcell.cuff_to_loadcell` and the config's pose)
+:func:`~phri_spring.physics.cuff.loadcell.cuff_to_loadcell` and the config's pose)
 plus a little noise.
 
 Experiments (three trials each by default, 100 Hz):
@@ -42,9 +42,9 @@ from typing import Optional
 import numpy as np
 
 from ..io.config import Config, load_config
-from ..physics.loadcell import FORCE_UNITS, MOMENT_UNITS, cuff_to_loadcell
-from ..physics.model import SpringModel, build_model, tissue_element_stiffness
-from ..physics.solver import solve
+from ..physics.cuff.loadcell import FORCE_UNITS, MOMENT_UNITS, cuff_to_loadcell
+from ..physics.springs.model import SpringModel, build_model, tissue_element_stiffness
+from ..physics.contact.solver import solve
 from .indenter import PAPER_MEAN, PAPER_SD
 
 __all__ = ["IACT_LOADS_N", "IPASS_LOADS_N", "LOADCELL_AXIS", "Truth", "truth_model",
@@ -288,7 +288,7 @@ def make_experiment(config, outdir, *, seed: int = 20230611, trials: int = 3,
     Path
         The manifest written.
     """
-    from ..io.atomic import atomic_directory
+    from ..io.outputs.atomic import atomic_directory
 
     cfg = config if isinstance(config, Config) else load_config(config)
     rng = np.random.default_rng(seed)

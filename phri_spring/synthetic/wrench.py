@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.loadcell import cuff_to_loadcell
+from ..physics.cuff.loadcell import cuff_to_loadcell
 
 __all__ = ["step_profile", "iact_like_log", "smooth_random_log"]
 

@@ -9,10 +9,10 @@ import numpy as np
 
 from ..errors import ConfigError, ModelInputError
 from ..io.config import Config
-from ..physics.geometry import CuffGeometry
-from ..physics.loadcell import FORCE_UNITS, MOMENT_UNITS, loadcell_to_cuff
-from ..physics.model import build_model, tissue_element_stiffness
-from ..io.memory_budget import check_model
+from ..physics.cuff.geometry import CuffGeometry
+from ..physics.cuff.loadcell import FORCE_UNITS, MOMENT_UNITS, loadcell_to_cuff
+from ..physics.springs.model import build_model, tissue_element_stiffness
+from ..io.memory.budget import check_model
 
 __all__ = ["geometry_from_config", "model_from_config", "cuff_wrench", "ARMS", "ARM_MODELS",
            "ArmModel", "register_arm"]
@@ -84,7 +84,7 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
         with the rigid arm), the geometry cannot hold the cuff (singular K_s), or
         the coupled model's inputs are missing or out of range, or the model
         (for the coupled arm, with its tissue FE) cannot fit in this machine's
-        memory (:func:`~phri_spring.io.memory_budget.check_model`).
+        memory (:func:`~phri_spring.io.memory.budget.check_model`).
     UsageError
         ``coupled`` without the ``fe`` extra (and no ``surface_stiffness`` file).
     """
@@ -119,10 +119,10 @@ def _rigid_model(cfg: Config, cache_dir=None):
 
 def history_model(model, cfg: Config):
     """``model`` solved sample by sample with the config's tissue relaxation and activation
-    factor (:class:`~phri_spring.physics.history.HistoryModel`): the compliant arm. The rigid
+    factor (:class:`~phri_spring.physics.history.model.HistoryModel`): the compliant arm. The rigid
     arm has no tissue and is returned as it is; the coupled arm is refused in one line."""
-    from ..physics.history import HistoryModel
-    from ..physics.relaxation import Prony
+    from ..physics.history.model import HistoryModel
+    from ..physics.history.relaxation import Prony
 
     if getattr(model, "has_history", False) or getattr(model, "arm", "") == "rigid":
         return model
@@ -188,10 +188,10 @@ def continuum_modulus(cfg: Config, geom: CuffGeometry | None = None) -> np.ndarr
 
 
 def _fe_module(cfg: Config):
-    """:mod:`phri_spring.physics.fe_tissue`, after checking that scikit-fem (the ``fe`` extra)
+    """:mod:`phri_spring.physics.continuum.tissue`, after checking that scikit-fem (the ``fe`` extra)
     is installed (a one-line UsageError naming the extra otherwise)."""
-    from ..physics import fe_tissue
-    from ..physics.fe_mesh import import_skfem
+    from ..physics.continuum import tissue as fe_tissue
+    from ..physics.continuum.mesh import import_skfem
 
     import_skfem()
     return fe_tissue
@@ -213,7 +213,7 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
 
     What ``model_from_config(cfg, "coupled")`` builds (without its memory check), with the
     FE's mesh level open to the convergence and reference benchmarks; ``level=None`` is
-    the shipped :data:`~phri_spring.physics.fe_mesh.DEFAULT_LEVEL`. With
+    the shipped :data:`~phri_spring.physics.continuum.mesh.DEFAULT_LEVEL`. With
     ``tissue.continuum.law`` ``neo_hookean`` or ``ogden`` the reduced hyperelastic model
     (:func:`~phri_spring.workflows.hyper_arm.hyper_coupled_model`) on this linear one.
     """
@@ -257,7 +257,7 @@ def _check_coupled_shape(cfg: Config) -> None:
 
 def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
     """:func:`coupled_model` with the linear continuum."""
-    from ..physics.coupled import build_coupled_model, scale_patches
+    from ..physics.continuum.coupled import build_coupled_model, scale_patches
 
     key = "tissue.continuum"
     if cfg.continuum_thickness is None:
@@ -282,7 +282,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
         raise ConfigError(f"the coupled model needs a Poisson ratio below 0.5 (a compressible "
                           f"continuum), got {cfg.poisson_ratio:g}", file=cfg.path,
                           key="tissue.poisson_ratio")
-    from ..physics.fe_mesh import MAX_POISSON_RATIO
+    from ..physics.continuum.mesh import MAX_POISSON_RATIO
 
     # the built-in FE builds K, or turns indenter stiffness into E for a per-patch spread
     builtin_fe = cfg.continuum_surface_stiffness is None or (
@@ -293,7 +293,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
                           f"{cfg.poisson_ratio:g}; use <= {MAX_POISSON_RATIO}, or give your own "
                           f"FE's tissue.continuum.surface_stiffness and young_modulus",
                           file=cfg.path, key="tissue.poisson_ratio")
-    from ..io.surface_stiffness import load_or_build, load_surface_stiffness
+    from ..io.cache.surface_stiffness import load_or_build, load_surface_stiffness
 
     N = None
     if cfg.continuum_surface_stiffness is not None:

@@ -3,8 +3,8 @@ patch gap either runs, with outputs that obey the physics, or is refused in one 
 naming a config key with a physical reason (docs/composition.md).
 
 The axes come from the registries, so that a new arm (:data:`~.common.ARM_MODELS`), tissue
-law (:data:`~phri_spring.physics.tissue_laws.TISSUE_LAWS`) or continuum law
-(:data:`~phri_spring.physics.coupled_hyper.CONTINUUM_LAWS`) joins the matrix by itself.
+law (:data:`~phri_spring.physics.laws.TISSUE_LAWS`) or continuum law
+(:data:`~phri_spring.physics.hyperelastic.coupled.CONTINUUM_LAWS`) joins the matrix by itself.
 The continuum law and the patch gap only matter for arms that read ``tissue.continuum``
 (:data:`CONTINUUM_ARMS`): for the others they are collapsed, not multiplied.
 
@@ -110,7 +110,7 @@ class Combination:
 
     def config(self) -> dict:
         """The base config with this combination's keys set."""
-        from ..physics.tissue_laws import TISSUE_LAWS
+        from ..physics.laws import TISSUE_LAWS
 
         raw = base_config()
         tissue = raw["tissue"]
@@ -148,8 +148,8 @@ def combinations(package_only: bool = False) -> list:
     """Every combination, from the registries (spring arms without the continuum axes);
     ``package_only``: of the arms and laws phri_spring itself registers (the docs' table),
     not those a user's or a test's module added."""
-    from ..physics.coupled_hyper import CONTINUUM_LAWS
-    from ..physics.tissue_laws import TISSUE_LAWS
+    from ..physics.hyperelastic.coupled import CONTINUUM_LAWS
+    from ..physics.laws import TISSUE_LAWS
     from .common import ARM_MODELS
 
     arms = [a for a, m in ARM_MODELS.items() if not package_only or _ours(m.build)]
@@ -186,7 +186,7 @@ class _ReducedModelReached(Exception):
 def _stop_at_the_reduced_model():
     # the checks of a hyperelastic layer all come before its reduced model, which needs
     # minutes (and the hyper extra) the first time: the matrix stops there
-    from ..io import hyper_reduction as store
+    from ..io.cache import hyper_reduction as store
 
     def stop(*args, **kwargs):
         raise _ReducedModelReached()

@@ -2,7 +2,7 @@
 
 A design is the base config's YAML mapping with each varied value put at its
 dotted path (keys separated by dots, list items by ``[i]``, split by
-:func:`phri_spring.io.study.parse_path`). :func:`check_parameter` checks once,
+:func:`phri_spring.io.config.study.parse_path`). :func:`check_parameter` checks once,
 before any design is built, that a path holds a number (a list of numbers for
 ``scale``), and :func:`set_parameter` puts one value there. Errors are
 :class:`ConfigError` naming the study file and ``vary.<path>``.
@@ -14,7 +14,7 @@ import copy
 import difflib
 
 from ..errors import ConfigError
-from ..io.study import Parameter, parse_path
+from ..io.config.study import Parameter, parse_path
 
 __all__ = ["walk_path", "check_parameter", "set_parameter"]
 

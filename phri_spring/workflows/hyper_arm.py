@@ -74,12 +74,12 @@ def _check(cfg: Config, E) -> None:
 def ogden_exponent(cfg: Config, young_modulus: float, *, cache_dir=None) -> tuple:
     """(alpha, source) of the Ogden law: ``tissue.continuum.ogden_alpha``, or identified from
     the indenter curve (``tissue.stiffening`` beta, one value) by simulating the indenter
-    on the layer (:func:`~phri_spring.io.hyper_reduction.ogden_alpha`), fitted up to the
+    on the layer (:func:`~phri_spring.io.cache.hyper_reduction.ogden_alpha`), fitted up to the
     force at which the mean pressure under the indenter reaches the pain threshold
     (``interface.pain_threshold_kpa``), as far as an indenter test on a person goes."""
     if cfg.continuum_ogden_alpha is not None:
         return float(cfg.continuum_ogden_alpha), "tissue.continuum.ogden_alpha"
-    from ..io import hyper_reduction as store
+    from ..io.cache import hyper_reduction as store
     beta = np.asarray(cfg.tissue_law_parameters.get("stiffening", 0.0), float)
     if cfg.tissue_law != "exponential" or not np.all(beta > 0):
         raise ConfigError("tissue.continuum.law ogden needs its exponent: give "
@@ -125,8 +125,8 @@ def hyper_coupled_model(cfg: Config, linear_builder, modulus, *, cache_dir=None,
     UsageError
         felupe (extra ``hyper``) is needed and not installed.
     """
-    from ..io import hyper_reduction as store
-    from ..physics.coupled_hyper import HyperCoupledModel
+    from ..io.cache import hyper_reduction as store
+    from ..physics.hyperelastic.coupled import HyperCoupledModel
     geom = cfg.geometry()
     E = np.asarray(modulus, float)
     _check(cfg, E)

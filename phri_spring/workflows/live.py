@@ -1,12 +1,12 @@
 """``phri live`` as library calls: the pressure map while the experiment runs (docs/live.md).
 
-:class:`LiveRun` reads samples from a :class:`~phri_spring.io.live_sources.LiveSource`,
+:class:`LiveRun` reads samples from a :class:`~phri_spring.io.live.sources.LiveSource`,
 turns each into the cuff wrench (:func:`~phri_spring.workflows.common.cuff_wrench`)
 and the forces of every element through the single-sample
-:class:`~phri_spring.physics.solver.Solver` (warm-started from the previous
+:class:`~phri_spring.physics.contact.solver.Solver` (warm-started from the previous
 sample, so friction follows the loading path), zeroes them by the baseline as
 ``phri simulate`` does, and hands the results to its outputs: the forces table
-(the columns of ``phri simulate``, :class:`~phri_spring.io.live_outputs.LiveTable`),
+(the columns of ``phri simulate``, :class:`~phri_spring.io.live.outputs.LiveTable`),
 an LSL outlet, alarm lines when the peak pressure ratio reaches a threshold and
 when it has come back below a lower clear level for long enough (hysteresis: no
 chatter), and any number of observers (:meth:`LiveRun.subscribe`:
@@ -36,15 +36,15 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from ..errors import DataError, UsageError
-from ..io.atomic import check_output_path
+from ..io.outputs.atomic import check_output_path
 from ..io.config import Config
-from ..io.live_outputs import LiveTable, LslMarkers, LslOutlet
-from ..io.live_sources import LiveSource
+from ..io.live.outputs import LiveTable, LslMarkers, LslOutlet
+from ..io.live.sources import LiveSource
 from ..io.logs import table_format
-from ..physics.solver import Solver
-from ..io.config_tolerance import curve_option
+from ..physics.contact.solver import Solver
+from ..io.config.tolerance import curve_option
 from .common import cuff_wrench, model_from_config
-from .tolerance_extras import LiveDose
+from .columns.tolerance import LiveDose
 from .simulate import (Baseline, _baseline_forces, _extra_arrow_types, parse_baseline,
                        per_sample_extras)
 
@@ -337,7 +337,7 @@ class LiveRun:
     def _loop(self, summary: LiveSummary, status) -> None:
         cfg, model = self.cfg, self.model
         if getattr(model, "has_history", False):    # relaxing tissue: samples in order
-            from ..physics.history import HistorySolver
+            from ..physics.history.model import HistorySolver
 
             self._solver = HistorySolver(model, max_iterations=cfg.max_iterations)
         else:

@@ -10,7 +10,7 @@ atomically) and adds the summary up in a :class:`SummaryAccumulator`. What a
 streamed run over a log needs before solving (the config, the output checks,
 the column map and group, the baseline, the chunked reader, the writer) is a
 :class:`LogRun` (:func:`open_log_run`), which ``simulate --uncertainty``
-(:mod:`phri_spring.workflows.uncertainty`) shares.
+(:mod:`phri_spring.workflows.uncertainty.run`) shares.
 """
 
 from __future__ import annotations
@@ -26,22 +26,22 @@ from typing import Callable, Optional, Union
 import numpy as np
 
 from ..errors import ConvergenceError, DataError, UsageError
-from ..io.atomic import atomic_file, check_output_path
+from ..io.outputs.atomic import atomic_file, check_output_path
 from ..io.config import Config, load_config
-from ..io.columns import LOG_COLUMNS, OPTIONAL_LOG_COLUMNS
-from ..io.config_tolerance import curve_option
+from ..io.logs.columns import LOG_COLUMNS, OPTIONAL_LOG_COLUMNS
+from ..io.config.tolerance import curve_option
 from ..io.logs import (ForcesWriter, count_rows, iter_wrench_log, prefetch, reader_options,
                        table_format)
-from ..physics.load_path import ChunkedShares
-from ..physics.model import SpringModel
-from ..physics.no_equilibrium import arm_radius
-from ..physics.solver import FactorCache, solve
+from ..physics.contact.load_path import ChunkedShares
+from ..physics.springs.model import SpringModel
+from ..physics.contact.no_equilibrium import arm_radius
+from ..physics.contact.solver import FactorCache, solve
 from .common import cuff_wrench, history_model, model_from_config
-from ..io.memory_budget import plan_stream
-from .plotting import MaxPool
-from .no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, NoAnswerTally, no_equilibrium_extras
-from .shear_extras import element_loads, has_patch_moments, shear_columns, shear_extras
-from .tolerance_extras import (TOLERANCE_COLUMN_TYPES, ExposureTally, exposure_table_path,
+from ..io.memory.budget import plan_stream
+from .plots.maxpool import MaxPool
+from .columns.no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, NoAnswerTally, no_equilibrium_extras
+from .columns.shear import element_loads, has_patch_moments, shear_columns, shear_extras
+from .columns.tolerance import (TOLERANCE_COLUMN_TYPES, ExposureTally, exposure_table_path,
                                write_exposure_table)
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
@@ -492,7 +492,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     chunk_rows : int
         Samples per chunk (bounds memory): a hint, capped at about 4 M values per chunk
         and lowered when the machine's memory is short
-        (:func:`~phri_spring.io.memory_budget.plan_stream`).
+        (:func:`~phri_spring.io.memory.budget.plan_stream`).
     decimals : int or None
         CSV output only: decimals kept in forces and pressures (default 6, i.e.
         1 uN and 1 mPa); None or a negative value keeps every digit. Parquet
@@ -507,7 +507,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     on_chunk : callable(time, absolute_forces, peak_pressure_kpa), optional
         Called in order, on the calling thread, once per chunk with its times (m,)
         [s], absolute forces (m, n) [N] and peak pressures (m,) [kPa] (e.g. to
-        draw the run, :mod:`phri_spring.workflows.plotting`; a ``MaxPool`` and its
+        draw the run, :mod:`phri_spring.workflows.plots.maxpool`; a ``MaxPool`` and its
         figure count in the memory estimate).
 
     Raises

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..errors import UsageError
-from ..io.atomic import atomic_file, check_output_path, output_error
+from ..io.outputs.atomic import atomic_file, check_output_path, output_error
 from ..io.config import load_config
 from ..io.presets import DEFAULT_PRESET, preset_file
 from ..synthetic.wrench import iact_like_log

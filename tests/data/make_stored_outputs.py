@@ -13,9 +13,9 @@ import numpy as np
 
 from phri_spring.io.config import load_config
 from phri_spring.io.logs import read_wrench_log
-from phri_spring.physics.geometry import cuff_geometry
-from phri_spring.physics.model import build_model, tissue_element_stiffness
-from phri_spring.physics.solver import Solver, solve
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
+from phri_spring.physics.contact.solver import Solver, solve
 from phri_spring.synthetic.wrench import smooth_random_log
 from phri_spring.workflows.simulate import simulate
 

@@ -154,7 +154,7 @@ _TEXT = st.text(st.characters(blacklist_categories=("Cs", "Cc"), blacklist_chara
                                              "utf-16-be-bom"]))
 def test_read_text_returns_the_text_written_in_any_unicode_encoding(tmp_path, text, encoding):
     """UTF-8 with or without BOM and UTF-16 with BOM give back exactly the text written."""
-    from phri_spring.io.textio import read_text
+    from phri_spring.io.logs.textio import read_text
 
     path = write_encoded(tmp_path / "t.txt", text, encoding)
     assert read_text(path) == text
@@ -167,7 +167,7 @@ def test_read_text_returns_the_text_written_in_any_unicode_encoding(tmp_path, te
                     .filter(lambda c: not 0x80 <= ord(c) <= 0x9F), min_size=1, max_size=200))
 def test_read_text_reads_latin1_that_is_not_utf8(tmp_path, text):
     """Latin-1 text (printable, not also valid UTF-8) is read as Latin-1."""
-    from phri_spring.io.textio import read_text
+    from phri_spring.io.logs.textio import read_text
 
     data = text.encode("latin-1")
     try:
@@ -187,7 +187,7 @@ def test_read_text_reads_latin1_that_is_not_utf8(tmp_path, text):
 def test_binary_data_is_refused_naming_the_file(tmp_path, junk):
     """Bytes with NUL or control characters (and no byte-order mark) are not text."""
     from phri_spring.errors import DataError
-    from phri_spring.io.textio import read_text
+    from phri_spring.io.logs.textio import read_text
 
     assume(not junk.startswith((b"\xef\xbb\xbf", b"\xff\xfe", b"\xfe\xff", b"\x00\x00\xfe\xff")))
     path = tmp_path / "junk.csv"

@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 from phri_spring.io.config import config_from_dict, load_config
-from phri_spring.io import memory_budget as mb
-from phri_spring.io.machine_memory import ENV_LIMIT, available_memory
+from phri_spring.io.memory import budget as mb
+from phri_spring.io.memory.machine import ENV_LIMIT, available_memory
 
 from .faultkit import CONFIG, Run, assert_fault, cli, command, snapshot
 
@@ -274,8 +274,8 @@ def test_study_draws_too_many(inputs, out):
 
 @pytest.mark.parametrize("plan", ["grid", "lhs:37", "sobol:16"])
 def test_design_count_is_the_plans(inputs, out, plan):
-    from phri_spring.io.study import load_study
-    from phri_spring.workflows.design import design_values
+    from phri_spring.io.config.study import load_study
+    from phri_spring.workflows.design.study import design_values
 
     study = out / "study.yaml"
     study.write_text(f"config: {inputs['cfg']}\nloads: [{inputs['log_csv']}]\nvary:\n"
@@ -379,7 +379,7 @@ def test_terms_match_measured_allocations(inputs, out):
         arrays += sum(getattr(model.geometry, f).nbytes for f in
                       ("x", "radius", "row_width", "theta", "span", "points", "normals",
                        "areas", "b"))
-        from phri_spring.physics.solver import FactorCache
+        from phri_spring.physics.contact.solver import FactorCache
         from phri_spring.workflows.simulate import _solve_chunk
 
         rows = 1000
@@ -423,7 +423,7 @@ def test_fe_mesh_size_and_term_match_the_fe(tmp_path):
 import copy, json, sys
 sys.path.insert(0, {str(Path(__file__).resolve().parents[2])!r})
 from phri_spring.io.config import load_config, config_from_dict
-from phri_spring.physics import fe_tissue
+from phri_spring.physics.continuum import tissue as fe_tissue
 import skfem, scipy.sparse.linalg
 from phri_spring.workflows.common import geometry_from_config
 def rss(name):

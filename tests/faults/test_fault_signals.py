@@ -85,7 +85,7 @@ def test_hangup_ignored_under_nohup(inputs, long_logs, out):
 def test_a_commit_check_stops_every_output(tmp_path, monkeypatch):
     # add_commit_check: what it raises stops the rename (file and folder), and the temporary
     # output is removed as after any failure; the existing output stays as it was
-    from phri_spring.io import atomic
+    from phri_spring.io.outputs import atomic
 
     monkeypatch.setattr(atomic, "_COMMIT_CHECKS", [])
     stop = RuntimeError("stop")
@@ -114,7 +114,7 @@ def test_a_swallowed_interrupt_still_stops_the_run(inputs, out, monkeypatch, cap
 
     from conftest import run_phri, stderr_of
     from phri_cli import _common
-    from phri_spring.io import atomic
+    from phri_spring.io.outputs import atomic
 
     monkeypatch.setattr(_common, "_received", [])
     monkeypatch.setattr(atomic, "_COMMIT_CHECKS", [])
@@ -152,7 +152,7 @@ def test_signal_right_after_the_temporary_is_made_leaves_nothing(tmp_path, monke
     from pathlib import Path
 
     from phri_cli._common import Interrupted, _on_signal
-    from phri_spring.io.atomic import atomic_directory, atomic_file
+    from phri_spring.io.outputs.atomic import atomic_directory, atomic_file
 
     real = os.mkdir if kind == "directory" else os.open
 

@@ -1,0 +1,14 @@
+"""Tissue laws: the normal force of an element's tissue for a compression, as plug-ins.
+
+One module per law (:mod:`.linear`, :mod:`.exponential`), their base class and registry in
+:mod:`.base` (how to add one: docs/model.md section 11.2), and the series element of a law
+with the cuff spring in :mod:`.series`. Every name is importable from here.
+"""
+
+from .base import TISSUE_LAWS, LawParameter, TissueLaw, make_law, register_law
+from .exponential import ExponentialLaw
+from .linear import LinearLaw
+from .series import SeriesElement
+
+__all__ = ["LawParameter", "TissueLaw", "LinearLaw", "ExponentialLaw", "SeriesElement",
+           "TISSUE_LAWS", "register_law", "make_law"]

@@ -1,0 +1,342 @@
+"""``phri simulate --uncertainty``: Monte Carlo over what was measured with scatter.
+
+The uncertain inputs (tissue stiffness, the exponential law's stiffening rate, strap
+tension, load-cell noise), their draws and what each arm takes from them (the coupled
+arm: the continuum's Young's modulus; the rigid arm: no tissue) are in
+:mod:`.uncertain_draws`. Every draw runs the config's tissue law (``tissue.law``,
+``tissue.stiffening``): a draw is the config with the drawn values put in.
+
+:func:`monte_carlo` draws N sets of inputs (fixed seed), solves the whole log
+for each, and returns the 5th, 50th and 95th percentiles over the draws of
+every element's force and of the per-sample peak pressure / pain threshold.
+Each draw's chunk is solved, and its peak pressure / pain threshold computed,
+by ``simulate``'s own chunk path (:func:`.simulate._solve_chunk`,
+:func:`.simulate.per_sample_extras`), and :func:`simulate_uncertainty_file`
+streams a log through the setup, reader and writer ``simulate`` uses
+(:func:`.simulate.open_log_run`). Every output names what scattered.
+
+The bands of ``phri compare --uncertainty`` are in :mod:`.compare_bands`, a
+design study's Monte Carlo and Sobol indices in :mod:`.design_uncertainty`;
+both are importable from here too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from ...errors import UsageError
+from ...io.config import Config
+from ...physics.friction.states import interface_mu
+from ...physics.contact.solver import FactorCache
+from ...reports.tissue_law_text import arm_law_text
+from ...reports.uncertainty.report import monte_carlo_summary_line
+from ..common import cuff_wrench, model_from_config
+from ..compare.bands import compare_bands, write_compare_bands  # noqa: F401 - importable here
+from ..design.uncertainty import sobol_indices, study_uncertainty  # noqa: F401 - importable here
+from ..simulate import _solve_chunk, open_log_run
+from .draws import (PERCENTILES, UncertainInputs, check_fe_cache,
+                              draw_configs, parse_sd, perturbed_text, reaches_model,
+                              uncertain_inputs)
+
+__all__ = ["UncertainInputs", "uncertain_inputs", "monte_carlo", "MonteCarloResult",
+           "MonteCarloStream", "MonteCarloRun", "simulate_uncertainty_file",
+           "percentile_columns", "RATIO_COLUMNS", "study_uncertainty", "PERCENTILES",
+           "write_monte_carlo", "sobol_indices", "compare_bands", "write_compare_bands",
+           "parse_sd", "run_cli"]
+
+#: columns of the percentile table after the forces: peak pressure / pain threshold [-]
+RATIO_COLUMNS = tuple(f"peak_pressure_to_pain_threshold_p{q:g}" for q in PERCENTILES)
+#: (draws x samples x elements) values held at once
+_CHUNK_ENTRIES = 1 << 23
+
+
+@dataclass
+class MonteCarloResult:
+    """Percentiles over the draws (q = :data:`PERCENTILES`).
+
+    Attributes
+    ----------
+    forces : ndarray, shape (3, m, n)
+        Percentiles of each element's normal force [N] at each sample.
+    pain_ratio : ndarray, shape (3, m)
+        Percentiles of the per-sample peak pressure / pain threshold [-].
+    draws : int
+    not_converged : int
+        (draw, sample) pairs the solver did not converge on (left out).
+    labels : tuple
+    perturbed : str
+        The inputs that scattered for the arm (``none``: the percentiles coincide).
+    tissue_law : str
+        The arm's tissue (:func:`~phri_spring.reports.tissue_law_text.arm_law_text`).
+    """
+
+    forces: np.ndarray
+    pain_ratio: np.ndarray
+    draws: int
+    not_converged: int
+    labels: tuple
+    perturbed: str = ""
+    tissue_law: str = ""
+
+
+class MonteCarloStream:
+    """Monte Carlo percentiles block by block, for a log of any length in bounded memory.
+
+    The samples are taken in blocks of a fixed size (about 8 M forces per
+    block over all draws); draw d's load-cell noise in block c comes from its
+    own random stream (seed, d, c), so the percentiles depend only on the seed
+    and the number of draws, not on how the log is read. :func:`monte_carlo`
+    (arrays) and ``phri simulate --uncertainty`` (streamed) share it.
+
+    Parameters
+    ----------
+    cfg : Config
+    draws : int
+        Monte Carlo draws N (>= 2).
+    seed : int
+    arm : str
+    inputs : UncertainInputs, optional
+        Default: the tissue SD from the config's CSV, no other scatter.
+
+    Attributes
+    ----------
+    block_samples : int
+        Samples per block.
+    perturbed : str
+        The inputs that scatter for this arm (``none`` when none does).
+    tissue_law : str
+        The arm's tissue law, e.g. ``exponential tissue law, beta 150 1/m``.
+    not_converged : int
+        (draw, sample) pairs the solver did not converge on so far (left out).
+    """
+
+    def __init__(self, cfg: Config, *, draws: int, seed: int = 0, arm: str = "compliant",
+                 inputs: Optional[UncertainInputs] = None):
+        if int(draws) < 2:
+            raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
+        self.cfg, self.draws, self.seed = cfg, int(draws), int(seed)
+        inputs = uncertain_inputs(cfg) if inputs is None else inputs
+        cfgs = draw_configs(cfg, inputs, self.draws, self.seed)
+        #: what scattered for this arm (:func:`.uncertain_draws.perturbed_text`)
+        self.perturbed = perturbed_text(cfg, inputs, arm)
+        self.tissue_law = f"{arm} arm: {arm_law_text(cfg, arm)}"
+        if reaches_model(cfg, inputs, arm):
+            check_fe_cache(cfg, inputs, [arm])
+            self.models = [model_from_config(c, arm) for c in cfgs]
+        else:   # nothing this arm uses scatters: every draw's model is the config's own
+            self.models = [model_from_config(cfg, arm)] * self.draws
+        self.noise_sd = inputs.noise_sd
+        self.block_samples = max(1, _CHUNK_ENTRIES // (self.draws * cfg.n_elements))
+        self.not_converged = 0
+        self._paths = {}   # draw -> its cache, kept only with friction (the path's state)
+
+    def _cache(self, d: int) -> FactorCache:
+        """Draw d's cache: a fresh one per block, except with friction, where each draw
+        runs the whole log as one loading path from the strap's state (docs/model.md 12.2)."""
+        if interface_mu(self.models[d]) is None:
+            return FactorCache()
+        if d not in self._paths:
+            self._paths[d] = FactorCache(64)
+        return self._paths[d]
+
+    def block(self, number: int, wrench_lc):
+        """Percentiles of block ``number`` (its samples in the load cell's units, (k, 6)).
+
+        Returns the force percentiles, shape (3, k, n) [N], and those of the
+        peak pressure / pain threshold, shape (3, k) [-].
+        """
+        cfg, n = self.cfg, self.cfg.n_elements
+        w = np.atleast_2d(np.asarray(wrench_lc, dtype=float))
+        F = np.empty((self.draws, len(w), n))
+        R = np.empty((self.draws, len(w)))
+        for d in range(self.draws):
+            wd = w
+            if self.noise_sd.any():
+                rng = np.random.default_rng([self.seed, 1, d, int(number)])
+                wd = wd + rng.standard_normal(wd.shape) * self.noise_sd
+            # a cache of its own: a draw's model is not the next draw's; with friction the
+            # draw's cache also carries its loading path from block to block
+            chunk = _solve_chunk(self.models[d], cuff_wrench(cfg, wd), None,
+                                 cfg.max_iterations, self._cache(d))
+            F[d] = chunk.forces
+            R[d] = chunk.extras()[0]["peak_pressure_to_pain_threshold"]
+            self.not_converged += int((~chunk.solution.converged).sum())
+        q = np.array(PERCENTILES)
+        pct = np.nanpercentile if self.not_converged else np.percentile
+        return pct(F, q, axis=0), pct(R, q, axis=0)
+
+    def blocks(self, chunks):
+        """Percentiles of a log read in chunks of any size.
+
+        ``chunks`` yields ``(time, wrench_lc)`` pairs, shapes (k,) and (k, 6);
+        yields ``(time, force percentiles, ratio percentiles)`` block by block
+        (see :meth:`block`), holding at most one block of samples.
+        """
+        times, wrenches, held, number = [], [], 0, 0
+        k = self.block_samples
+        for t, w in chunks:
+            times.append(np.asarray(t, dtype=float))
+            wrenches.append(np.atleast_2d(np.asarray(w, dtype=float)))
+            held += len(times[-1])
+            if held < k:
+                continue
+            t_all, w_all = np.concatenate(times), np.concatenate(wrenches)   # once a chunk
+            start = 0
+            while held - start >= k:
+                yield (t_all[start:start + k], *self.block(number, w_all[start:start + k]))
+                number, start = number + 1, start + k
+            times, wrenches, held = [t_all[start:]], [w_all[start:]], held - start
+        if held:
+            yield (np.concatenate(times), *self.block(number, np.concatenate(wrenches)))
+
+
+def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str = "compliant",
+                inputs: Optional[UncertainInputs] = None) -> MonteCarloResult:
+    """Monte Carlo percentiles of the forces for every sample of a log.
+
+    Parameters
+    ----------
+    cfg : Config
+    wrench_lc : array_like, shape (m, 6)
+        Load-cell readings in the config's units.
+    draws : int
+        Monte Carlo draws N (>= 2).
+    seed : int
+        Results depend only on the seed and N (draw d's noise comes from its own
+        stream, block by block of samples of a fixed size: see
+        :class:`MonteCarloStream`, which streams a log of any length).
+    arm : str
+    inputs : UncertainInputs, optional
+        Default: the tissue SD from the config's CSV, no other scatter.
+
+    Returns
+    -------
+    MonteCarloResult
+    """
+    mc = MonteCarloStream(cfg, draws=draws, seed=seed, arm=arm, inputs=inputs)
+    w = np.atleast_2d(np.asarray(wrench_lc, dtype=float))
+    m, n = len(w), cfg.n_elements
+    out_f = np.empty((3, m, n))
+    out_r = np.empty((3, m))
+    for c, s in enumerate(range(0, m, mc.block_samples)):
+        e = min(m, s + mc.block_samples)
+        out_f[:, s:e], out_r[:, s:e] = mc.block(c, w[s:e])
+    return MonteCarloResult(out_f, out_r, mc.draws, mc.not_converged, tuple(cfg.labels),
+                            mc.perturbed, mc.tissue_law)
+
+
+def write_monte_carlo(result: MonteCarloResult, time, output) -> Path:
+    """Write the percentile table (CSV or Parquet by extension), atomically.
+
+    Columns: time [s]; for each element ``{label}_p5``, ``{label}_p50``,
+    ``{label}_p95`` [N]; ``peak_pressure_to_pain_threshold_p5/_p50/_p95`` [-].
+    """
+    import pandas as pd
+
+    from ...io.outputs.atomic import atomic_file
+    from ...io.logs import table_format
+
+    output = Path(output)
+    fmt = table_format(output, role="output", option="-o/--output")
+    data = {"time": np.asarray(time, dtype=float)}
+    m, n = result.forces.shape[1:]
+    data.update(zip(percentile_columns(result.labels),
+                    result.forces.transpose(1, 2, 0).reshape(m, 3 * n).T))
+    data.update(zip(RATIO_COLUMNS, result.pain_ratio))
+    df = pd.DataFrame(data)
+    with atomic_file(output) as tmp:
+        if fmt == "parquet":
+            df.to_parquet(tmp, index=False)
+        else:
+            df.to_csv(tmp, index=False, float_format="%.6f")
+    return output
+
+
+@dataclass(frozen=True)
+class MonteCarloRun:
+    """What ``phri simulate --uncertainty`` wrote: the table and its size."""
+
+    output: Path
+    samples: int
+    draws: int
+    not_converged: int
+    labels: tuple
+    seed: int = 0
+    #: the largest 95th percentile of peak pressure / pain threshold [-] and its time [s]
+    max_pain_ratio_p95: float = math.nan
+    max_pain_ratio_time: float = math.nan
+    #: the inputs that scattered for the arm that ran
+    perturbed: str = ""
+    #: the arm and its tissue law (``compliant arm: exponential tissue law, beta 150 1/m``)
+    tissue_law: str = ""
+
+    def summary_line(self) -> str:
+        """The line ``phri simulate --uncertainty`` ends with: sizes, draws, the peak."""
+        return monte_carlo_summary_line(
+            self.output, samples=self.samples, elements=len(self.labels), draws=self.draws,
+            seed=self.seed, not_converged=self.not_converged, perturbed=self.perturbed,
+            tissue_law=self.tissue_law,
+            max_pain_ratio_p95=self.max_pain_ratio_p95,
+            max_pain_ratio_time=self.max_pain_ratio_time)
+
+
+def percentile_columns(labels) -> list:
+    """Force columns of the percentile table: ``{label}_p5``, ``_p50``, ``_p95`` per element."""
+    tags = [f"p{q:g}" for q in PERCENTILES]
+    return [f"{lab}_{tag}" for lab in labels for tag in tags]
+
+
+def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
+                              arm: str = "compliant", columns: Optional[dict] = None,
+                              group: Optional[str] = None, sd: Optional[str] = None,
+                              progress=None) -> MonteCarloRun:
+    """``phri simulate --uncertainty N``: stream a log through :class:`MonteCarloStream`.
+
+    The log is read, and the table written, as ``simulate`` does
+    (:func:`.simulate.open_log_run`: ``columns`` merged over
+    ``load_cell.columns``, ``group`` the TDMS group or MAT struct, default
+    ``load_cell.group``). The table (the columns of :func:`write_monte_carlo`;
+    CSV forces to 1 uN) is written block by block into a temporary file that
+    replaces ``output`` at the end, so that a log of any length runs in
+    bounded memory. ``progress(samples_done, total)`` is called after each block.
+    """
+    import pyarrow as pa
+
+    run = open_log_run(config, log, output, columns=columns, group=group)
+    cfg = run.cfg
+    inputs = uncertain_inputs(cfg, **parse_sd(sd))
+    mc = MonteCarloStream(cfg, draws=draws, seed=seed, arm=arm, inputs=inputs)
+    ratio = {name: pa.float64() for name in RATIO_COLUMNS}
+    total = run.count() if progress is not None else None
+    samples, peak, peak_time = 0, -math.inf, math.nan
+    with run.writer(percentile_columns(cfg.labels), ratio) as writer:
+        chunks = ((ch.time, ch.wrench) for ch in run.chunks())
+        for time, f_pct, r_pct in mc.blocks(chunks):
+            k = len(time)
+            # (3, k, n) -> (k, n, 3): each element's p5, p50, p95 side by side
+            writer.write(time, f_pct.transpose(1, 2, 0).reshape(k, -1),
+                         dict(zip(ratio, r_pct)))
+            if np.isfinite(r_pct[2]).any() and np.nanmax(r_pct[2]) > peak:
+                j = int(np.nanargmax(r_pct[2]))
+                peak, peak_time = float(r_pct[2][j]), float(time[j])
+            samples += k
+            if progress is not None:
+                progress(samples, total)
+    return MonteCarloRun(run.output, samples, mc.draws, mc.not_converged, tuple(cfg.labels),
+                         mc.seed, peak if samples and np.isfinite(peak) else math.nan,
+                         peak_time, mc.perturbed, mc.tissue_law)
+
+
+def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed,
+            progress=None, group: Optional[str] = None) -> "MonteCarloRun":
+    """The ``--uncertainty`` branch of ``phri simulate`` (absolute forces only)."""
+    if baseline != "none":
+        raise UsageError(f"--uncertainty gives percentiles of absolute forces; expected "
+                         f"--baseline none, got {baseline}", key="--baseline")
+    return simulate_uncertainty_file(config, log, output, draws=draws, seed=seed, arm=arm,
+                                     columns=columns, group=group, sd=sd, progress=progress)
