@@ -9,7 +9,7 @@ lsl:... --lsl-out ...`` runs in its own process; a test inlet takes the
 results. Latency = arrival at the test inlet - the input sample's stamp
 (carried through by phri), one machine, one clock.
 
-``netft``: the RDT emulator of ``tests/netft_emulator.py`` streams the same
+``netft``: the RDT emulator of ``tests/support/netft_emulator.py`` streams the same
 wrenches at 1 kHz over loopback UDP; phri stamps each record with its
 reception time, so the latency is reception by phri -> arrival at the test
 inlet (the UDP hop on loopback, a few microseconds, is not in it).

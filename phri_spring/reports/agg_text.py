@@ -15,7 +15,7 @@ renderer keeps
 
 It then blends the glyphs into the image exactly as matplotlib does (same
 calls, same order), so the images are identical to the byte
-(``tests/test_figures_reference.py`` checks it on many strings, sizes, angles
+(``tests/reports/test_figures_reference.py`` checks it on many strings, sizes, angles
 and positions). Math text and text with font features or a language set go
 the ordinary way.
 

@@ -12,8 +12,8 @@ Each combination runs a small config (the human preset cut to one row of five pa
 a short log (:data:`LOG_SAMPLES` samples) through :func:`~.simulate.simulate_file`, as
 ``phri simulate --shear`` does. A hyperelastic continuum is checked up to its reduced
 model (loaded or identified once, minutes, extra ``hyper``): the identification is not run
-here; the reduced model's outputs are tested by tests/test_hyper_arm.py and
-tests/test_ogden_arm.py.
+here; the reduced model's outputs are tested by tests/workflows/test_hyper_arm.py and
+tests/workflows/test_ogden_arm.py.
 
 Regenerate the docs' table (after a change to any registry or refusal)::
 

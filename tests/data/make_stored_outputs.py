@@ -2,7 +2,7 @@
 
 Run once with the code whose results are to be kept (it was run on 2026-11-23 with the
 solver before the active-set kernel was restructured, commit d7d7e86);
-tests/test_stored_outputs.py then checks that the current code gives the same bits.
+tests/workflows/test_stored_outputs.py then checks that the current code gives the same bits.
 
     python tests/data/make_stored_outputs.py
 """

@@ -112,7 +112,7 @@ def test_a_swallowed_interrupt_still_stops_the_run(inputs, out, monkeypatch, cap
     import sys
     import weakref
 
-    from conftest import run_phri, stderr_of
+    from support.helpers import run_phri, stderr_of
     from phri_cli import _common
     from phri_spring.io.outputs import atomic
 

@@ -1,0 +1,137 @@
+"""Relaxation and muscle activation from the command line (docs/model.md section 15).
+
+Bad inputs give exit 1 (data) with one line naming the file and key or column; a log's
+activation column at 0 changes nothing; a relaxing tissue's outputs differ from the
+elastic ones only after the first sample's rest.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from click.testing import CliRunner
+
+from support.helpers import harmony_dict, one_line
+from phri_cli.main import phri
+
+
+def _run(*args):
+    return CliRunner().invoke(phri, [*map(str, args)], catch_exceptions=False)
+
+
+def _line(result) -> str:
+    """The run's error output, asserted to be one line."""
+    text = result.stderr if hasattr(result, "stderr") else result.output
+    assert one_line(text), text
+    return text.strip()
+
+
+def _log(path, m=120, activation=None, name="activation", seed=0):
+    rng = np.random.default_rng(seed)
+    t = 0.01 * np.arange(m)
+    W = np.cumsum(rng.normal(size=(m, 6)), axis=0) * [2, 2, 2, 0.05, 0.05, 0.05]
+    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+    df.insert(0, "time", t)
+    if activation is not None:
+        df[name] = activation
+    df.to_csv(path, index=False)
+    return path
+
+
+def _config(tmp_path, **tissue):
+    raw = harmony_dict()
+    raw["tissue"].update(tissue)
+    path = tmp_path / "cfg.yaml"
+    path.write_text(yaml.safe_dump(raw))
+    return path
+
+
+def test_activation_at_zero_changes_nothing(tmp_path):
+    cfg = _config(tmp_path)
+    plain = _log(tmp_path / "plain.csv")
+    zero = _log(tmp_path / "zero.csv", activation=np.zeros(120))
+    assert _run("simulate", cfg, plain, "-o", tmp_path / "a.csv").exit_code == 0
+    r = _run("simulate", cfg, zero, "-o", tmp_path / "b.csv")
+    assert r.exit_code == 0, r.output
+    a, b = pd.read_csv(tmp_path / "a.csv"), pd.read_csv(tmp_path / "b.csv")
+    labels = [c for c in a.columns if c[0] in "ABC" and c[1:].isdigit()]
+    np.testing.assert_allclose(b[labels], a[labels], atol=2e-6)   # 6 decimals written
+
+
+def test_activation_stiffens_the_tissue_and_is_mapped_by_column(tmp_path):
+    cfg = _config(tmp_path, activation_factor=3.0)
+    act = np.linspace(0.0, 1.0, 120)
+    log = _log(tmp_path / "emg.csv", activation=act, name="EMG (norm)")
+    r = _run("simulate", cfg, log, "-o", tmp_path / "out.csv", "--column", "activation=EMG (norm)")
+    assert r.exit_code == 0, r.output
+    plain = _log(tmp_path / "plain.csv")
+    _run("simulate", cfg, plain, "-o", tmp_path / "plain_out.csv")
+    a, b = pd.read_csv(tmp_path / "out.csv"), pd.read_csv(tmp_path / "plain_out.csv")
+    labels = [c for c in a.columns if c[0] in "ABC" and c[1:].isdigit()]
+    d = np.abs(a[labels].to_numpy() - b[labels].to_numpy()).max(axis=1)
+    assert d[0] < 2e-6 and d[-1] > 1e-3       # a = 0 at the start, a = 1 at the end
+
+
+@pytest.mark.parametrize("bad", [1.5, -0.2])
+def test_activation_outside_0_1_is_one_line_naming_column_and_row(tmp_path, bad):
+    cfg = _config(tmp_path)
+    act = np.full(120, 0.5)
+    act[37] = bad
+    log = _log(tmp_path / "bad.csv", activation=act)
+    before = log.read_bytes()
+    r = _run("simulate", cfg, log, "-o", tmp_path / "out.csv")
+    assert r.exit_code == 1
+    line = _line(r)
+    assert "activation" in line and "38" in line and "bad.csv" in line
+    assert not (tmp_path / "out.csv").exists() and log.read_bytes() == before
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]
+
+
+@pytest.mark.parametrize("relaxation, needle", [
+    ({"fractions": [0.6, 0.5], "times_s": [1.0, 2.0]}, "sum < 1"),
+    ({"fractions": [0.2], "times_s": [0.0]}, "times_s"),
+    ({"fractions": [0.2, 0.1], "times_s": [1.0]}, "as many"),
+])
+def test_bad_relaxation_is_one_line_naming_the_key(tmp_path, relaxation, needle):
+    cfg = _config(tmp_path, relaxation=relaxation)
+    r = _run("simulate", cfg, _log(tmp_path / "l.csv"), "-o", tmp_path / "o.csv")
+    assert r.exit_code == 1
+    line = _line(r)
+    assert "tissue.relaxation" in line and needle in line
+
+
+def test_the_coupled_arm_is_refused_in_one_line(tmp_path):
+    cfg = _config(tmp_path, relaxation={"fractions": [0.3], "times_s": [1.0]})
+    r = _run("simulate", cfg, _log(tmp_path / "l.csv"), "-o", tmp_path / "o.csv",
+             "--arm", "coupled")
+    assert r.exit_code == 1
+    assert "tissue.relaxation" in _line(r)
+
+
+def test_relaxation_shows_after_a_load_step(tmp_path):
+    """A step of load held: the elastic forces stay, the relaxing ones move (creep)."""
+    m = 400
+    t = 0.01 * np.arange(m)
+    W = np.zeros((m, 6))
+    W[50:, 1] = -30.0
+    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+    df.insert(0, "time", t)
+    df.to_csv(tmp_path / "step.csv", index=False)
+    elastic = _config(tmp_path)
+    r = _run("simulate", elastic, tmp_path / "step.csv", "-o", tmp_path / "e.csv")
+    assert r.exit_code == 0
+    relax = tmp_path / "relax.yaml"
+    raw = yaml.safe_load(elastic.read_text())
+    raw["tissue"]["relaxation"] = {"fractions": [0.4], "times_s": [0.5]}
+    relax.write_text(yaml.safe_dump(raw))
+    r = _run("simulate", relax, tmp_path / "step.csv", "-o", tmp_path / "r.csv")
+    assert r.exit_code == 0, r.output
+    e, q = pd.read_csv(tmp_path / "e.csv"), pd.read_csv(tmp_path / "r.csv")
+    labels = [c for c in e.columns if c[0] in "ABC" and c[1:].isdigit()]
+    E, Q = e[labels].to_numpy(), q[labels].to_numpy()
+    assert np.abs(np.diff(E[60:], axis=0)).max() < 1e-9     # elastic: constant after the step
+    assert np.abs(Q[60] - Q[-1]).max() > 1e-2               # relaxing: still moving
+    # the total force along the load balances the same wrench in both (equilibrium)
+    assert np.isfinite(Q).all()
