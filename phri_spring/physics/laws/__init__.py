@@ -6,8 +6,10 @@ with the cuff spring in :mod:`.series`. Every name is importable from here.
 """
 
 from .base import TISSUE_LAWS, LawParameter, TissueLaw, make_law, register_law
-from .exponential import ExponentialLaw
-from .linear import LinearLaw
+# registration order is the order of TISSUE_LAWS (tables, the composition matrix): the
+# paper's linear law first
+from .linear import LinearLaw  # isort: skip
+from .exponential import ExponentialLaw  # isort: skip
 from .series import SeriesElement
 
 __all__ = ["LawParameter", "TissueLaw", "LinearLaw", "ExponentialLaw", "SeriesElement",
