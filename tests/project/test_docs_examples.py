@@ -107,7 +107,7 @@ def test_page_blocks_run(page, workspace):
         filter(None, [str(ROOT / "tests"), os.environ.get("PYTHONPATH")])))
     # the phri of this interpreter's environment first
     env["PATH"] = os.pathsep.join([str(Path(sys.executable).parent), env.get("PATH", "")])
-    res = subprocess.run([sys.executable, str(ROOT / "tests" / "docs_blocks.py"), page,
+    res = subprocess.run([sys.executable, str(ROOT / "tests" / "support" / "docs_blocks.py"), page,
                           str(workspace)], capture_output=True, text=True, env=env, timeout=900)
     results = [json.loads(s[len(db.MARK):]) for s in res.stdout.splitlines()
                if s.startswith(db.MARK)]

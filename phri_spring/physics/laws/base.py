@@ -23,12 +23,6 @@ A law whose force depends on the loading history (viscoelastic, plastic) sets
 :meth:`TissueLaw.advance`; the solver then solves the samples in order and
 carries the state from sample to sample and from chunk to chunk.
 
->>> import numpy as np
->>> law = make_law("linear", k0=[1000.0, 2000.0])
->>> law.force(np.array([0.002, -0.001]))             # N: 1000 N/m x 2 mm; lifted: 0
-array([2., 0.])
->>> {"linear", "exponential"} <= set(TISSUE_LAWS)
-True
 """
 
 from __future__ import annotations
@@ -40,7 +34,7 @@ import numpy as np
 
 from ...errors import ModelInputError
 
-__all__ = ["LawParameter", "TissueLaw", "TISSUE_LAWS", "register_law", "make_law"]
+__all__ = ["LawParameter", "TissueLaw", "TISSUE_LAWS", "register_law"]
 
 
 @dataclass(frozen=True)
@@ -89,24 +83,6 @@ def register_law(cls):
                             "a unit and a description")
     TISSUE_LAWS[cls.name] = cls
     return cls
-
-
-def make_law(name, k0, **params) -> "TissueLaw":
-    """The law ``name`` (a registered name, or a :class:`TissueLaw` subclass) with initial
-    stiffness ``k0`` (n,) [N/m] and its parameters."""
-    if isinstance(name, type) and issubclass(name, TissueLaw):
-        cls = name
-    else:
-        try:
-            cls = TISSUE_LAWS[name]
-        except KeyError:
-            raise ValueError(f"tissue law: expected one of {', '.join(sorted(TISSUE_LAWS))}, "
-                             f"got {name!r}") from None
-    from .linear import LinearLaw
-
-    law = cls(k0, **params)
-    # a law that is linear at these parameters is solved as the linear law, exactly
-    return LinearLaw(law.k0) if law.linear_here() else law
 
 
 class TissueLaw:
