@@ -8,10 +8,12 @@ adds the dose columns. Without the section nothing changes.
 from __future__ import annotations
 
 import difflib
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
+
+if TYPE_CHECKING:  # annotations only
+    from ...physics.response.tolerance import ToleranceCurve
 
 from ...errors import ConfigError, ModelInputError, UsageError
-from ...physics.response.tolerance import TOLERANCE_CURVES, ToleranceCurve, tolerance_curve
 
 __all__ = ["TOLERANCE_KEYS", "parse_tolerance", "curve_option"]
 
@@ -20,13 +22,16 @@ TOLERANCE_KEYS = ("curve",)
 
 
 def _unknown_curve(name) -> str:
+    # the curves are read only when a run asks for one (start-up of every other run)
+    from ...physics.response.tolerance import TOLERANCE_CURVES, tolerance_curve  # noqa: F401
+
     close = difflib.get_close_matches(str(name), TOLERANCE_CURVES, n=1, cutoff=0.5)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     return (f"unknown tolerance curve {name!r}{hint} (expected one of "
             f"{', '.join(TOLERANCE_CURVES)})")
 
 
-def parse_tolerance(value, path=None) -> Optional[ToleranceCurve]:
+def parse_tolerance(value, path=None) -> "Optional[ToleranceCurve]":
     """The curve the config's ``tolerance`` section names, or None without the section.
 
     Raises
@@ -36,6 +41,9 @@ def parse_tolerance(value, path=None) -> Optional[ToleranceCurve]:
     """
     if value is None:
         return None
+    # the curves are read only when a run asks for one (start-up of every other run)
+    from ...physics.response.tolerance import TOLERANCE_CURVES, tolerance_curve  # noqa: F401
+
     if not isinstance(value, dict):
         raise ConfigError(f"expected a mapping such as {{curve: linder_ganz_2006}}, got "
                           f"{type(value).__name__}", file=path, key="tolerance")
@@ -58,7 +66,7 @@ def parse_tolerance(value, path=None) -> Optional[ToleranceCurve]:
         raise ConfigError(_unknown_curve(name), file=path, key="tolerance.curve") from None
 
 
-def curve_option(name, cfg=None, option: str = "--tolerance") -> Optional[ToleranceCurve]:
+def curve_option(name, cfg=None, option: str = "--tolerance") -> "Optional[ToleranceCurve]":
     """The curve of a command's ``--tolerance NAME`` option, else the config's
     (``cfg.tolerance``), else None.
 
@@ -69,6 +77,9 @@ def curve_option(name, cfg=None, option: str = "--tolerance") -> Optional[Tolera
     """
     if name is None:
         return getattr(cfg, "tolerance", None)
+    # the curves are read only when a run asks for one (start-up of every other run)
+    from ...physics.response.tolerance import TOLERANCE_CURVES, tolerance_curve  # noqa: F401
+
     try:
         return tolerance_curve(name)
     except ModelInputError:
