@@ -188,7 +188,9 @@ class HistoryModel:
         wrench : array_like, shape (m, 6)
             Wrench on the cuff, cuff frame [N, N*m] (the strap's is added).
         times : array_like, shape (m,)
-            Sample times [s], non-decreasing.
+            Sample times [s]. A time that repeats or goes back (a glitch of the logger) is
+            taken as no time passing (dt = 0), as the elastic model and the tolerance dose
+            take it.
         activation : array_like, shape (m,), optional
             Muscle activation a in [0, 1]; None: 0.
         state : HistoryState, optional
@@ -208,8 +210,7 @@ class HistoryModel:
         dt = np.empty(m)
         dt[0] = np.inf if st.time is None else t[0] - st.time
         dt[1:] = np.inf if _rested else np.diff(t)
-        if (dt < 0).any():
-            raise ValueError("times: expected non-decreasing sample times")
+        np.maximum(dt, 0.0, out=dt)
         A, Bc = step_coefficients(self.relaxation, dt)
         if activation is None:
             s = np.ones(m)

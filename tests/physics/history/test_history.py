@@ -244,3 +244,13 @@ def test_one_element_under_a_step_compression_relaxes_as_the_closed_form():
         prony.g * prony.tau / Tr * (np.exp(-(s[:, None] - Tr) / prony.tau)
                                     - np.exp(-s[:, None] / prony.tau)), axis=1))
     np.testing.assert_allclose(f[hold], closed, rtol=1e-6)
+
+
+def test_a_time_that_goes_back_is_no_time():
+    """A logger's glitch (a time stamp that repeats or goes back) is taken as dt = 0."""
+    base = _model()
+    prony = Prony([0.4], [0.3])
+    W, _ = _log(5, 6)
+    glitch = HistoryModel(base, prony).solve_log(W, [0.0, 0.1, 0.2, 0.15, 0.3, 0.4])
+    same = HistoryModel(base, prony).solve_log(W, [0.0, 0.1, 0.2, 0.2, 0.35, 0.45])
+    np.testing.assert_allclose(glitch.forces, same.forces, atol=1e-12)
