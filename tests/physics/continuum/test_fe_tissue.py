@@ -18,10 +18,11 @@ from phri_spring.physics.continuum import tissue as fe
 from support.reference_layer import kappa_integral_equation
 from references import rigid_cuff_fe
 from phri_spring.physics.cuff.geometry import cuff_geometry
+from support.helpers import harmony_geometry  # noqa: E402
 
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 
-HARMONY = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+HARMONY = harmony_geometry()
 
 
 @pytest.fixture(scope="module")

@@ -21,9 +21,9 @@ from phri_spring.errors import UsageError  # noqa: E402
 from phri_spring.physics.hyperelastic import fe as fh  # noqa: E402
 from phri_spring.physics.continuum.coupled import patch_frames  # noqa: E402
 from references.rigid_cuff_fe import direct_rigid_cuff_response  # noqa: E402
-from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
+from support.helpers import harmony_geometry  # noqa: E402
 
-GEOM = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)   # human preset
+GEOM = harmony_geometry()   # the human preset's cuff is the Harmony's
 T, E, NU, LF = 0.025, 3.0e4, 0.45, 1.5
 
 
