@@ -5,7 +5,7 @@ np.linalg.solve in an active-set loop (phri_spring.physics.contact.solver.solve_
 same method and stopping rule, no vectorisation, caching or warm start), and
 pandas writes the forces. Usage:
 
-    python benchmarks/baseline_loop.py CONFIG LOG.csv OUT.csv
+    python -m benchmarks.baseline_loop CONFIG LOG.csv OUT.csv
 """
 
 import sys

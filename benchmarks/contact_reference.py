@@ -3,11 +3,11 @@
 Run from the repository root (prints markdown; ``benchmarks/CONTACT_REFERENCE.md`` holds
 a run and what it means)::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py                # levels 2,3
-    OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py --levels 2 --forces 11.1
-    OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py --through centre
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.contact_reference                # levels 2,3
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.contact_reference --levels 2 --forces 11.1
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.contact_reference --through centre
 
-The reference (:mod:`phri_spring.physics.continuum.contact_reference`) is the coupled model's own tissue FE
+The reference (:mod:`references.contact_fe`) is the coupled model's own tissue FE
 with every skin node under a plate a unilateral contact of its own, frictionless or with
 Coulomb friction along a loading path, the cuff, its springs and the strap preload (delta,
 W_pre) taken from the coupled model. Loads: the paper's horizontal (load-cell z) and
@@ -53,12 +53,10 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from phri_spring.errors import ConvergenceError, PhriError  # noqa: E402
 from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
-from phri_spring.physics.continuum import contact_reference as fc  # noqa: E402
+from references import contact_fe as fc  # noqa: E402
 from phri_spring.physics.continuum.mesh import DEFAULT_LEVEL  # noqa: E402
 from phri_spring.physics.contact.solver import solve  # noqa: E402
 from phri_spring.workflows.common import (continuum_modulus, coupled_model,  # noqa: E402
@@ -202,7 +200,7 @@ def main(argv=None):
     cfgs = {k: config(args.config, v) for k, v in mus.items()}
     load = cases(cfgs["bonded"], forces, through)
     print(f"# Contact reference: `{args.config}`, mu = {args.mu:g}\n")
-    cmd = " ".join(["OPENBLAS_NUM_THREADS=1 python benchmarks/contact_reference.py",
+    cmd = " ".join(["OPENBLAS_NUM_THREADS=1 python -m benchmarks.contact_reference",
                     *(argv if argv is not None else sys.argv[1:])])
     print(f"Command: `{cmd}`\n")
     print(f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "

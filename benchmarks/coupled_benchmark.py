@@ -1,6 +1,6 @@
 """Speed of the coupled tissue model against the spring model, measured in the same run.
 
-    python benchmarks/coupled_benchmark.py            # writes benchmarks/COUPLED_RESULTS.md
+    python -m benchmarks.coupled_benchmark            # writes benchmarks/COUPLED_RESULTS.md
 
 Targets: the coupled solve of a one-hour 100 Hz log (360,000 samples) runs
 at >= 25 % of the spring model's samples/s; the single-sample ``Solver`` call takes
@@ -82,7 +82,7 @@ def main() -> None:
         "",
         f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
         f"{platform.python_version()}, numpy {np.__version__}. "
-        f"{time.strftime('%Y-%m-%d')}. Command: `python benchmarks/coupled_benchmark.py`.",
+        f"{time.strftime('%Y-%m-%d')}. Command: `python -m benchmarks.coupled_benchmark`.",
         "Harmony config with `tissue.continuum: {thickness: 0.02, young_modulus: 1.0e5}`, "
         f"{coupled.dofs} dofs per patch; a one-hour 100 Hz synthetic log (360,000 samples).",
         "",

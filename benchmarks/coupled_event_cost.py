@@ -3,7 +3,7 @@ log, one preset, the coupled arm, with its default interface (lift-off released)
 Coulomb coefficient; CPU time of the solve alone (model built and warmed up first), and
 that time scaled to one hour of 100 Hz samples.
 
-    python benchmarks/coupled_event_cost.py [--preset human_upper_arm] [--mu 0.5]
+    python -m benchmarks.coupled_event_cost [--preset human_upper_arm] [--mu 0.5]
         [--minutes 2] [--log FILE] [--root CHECKOUT]
 
 The log is examples/wrench_log.csv repeated (``--log``: another CSV with the load cell's
@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from benchmarks.common import ROOT, use_checkout
 
 COLS = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
 HOUR = 360_000
@@ -32,10 +33,11 @@ def main():
     ap.add_argument("--mu", type=float, default=None, help="Coulomb coefficient (default: none)")
     ap.add_argument("--minutes", type=float, default=2.0)
     ap.add_argument("--log", type=Path, default=None)
-    ap.add_argument("--root", type=Path, default=Path(__file__).resolve().parents[1])
+    ap.add_argument("--root", type=Path, default=None)
     args = ap.parse_args()
-    root = args.root.resolve()
-    sys.path.insert(0, str(root))
+    root = (args.root or ROOT).resolve()
+    if args.root is not None:
+        use_checkout(root)
     from phri_spring.io.config import load_config
     from phri_spring.physics.contact.solver import solve
     from phri_spring.workflows.common import cuff_wrench, model_from_config

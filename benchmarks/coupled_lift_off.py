@@ -1,7 +1,7 @@
 """The coupled arm's default interface: lift-off released (docs/model.md 10.2) against the
 old bonded-everywhere default, and frictionless contact (mu = 0) on the coupled arm.
 
-    python benchmarks/coupled_lift_off.py [--repeats 3] [--minutes 5] [--out FILE]
+    python -m benchmarks.coupled_lift_off [--repeats 3] [--minutes 5] [--out FILE]
 
 1. Speed: ``solve`` on the first ``--minutes`` of the one-hour log of
    ``friction_benchmark.py`` (examples/wrench_log.csv repeated), coupled arm, each preset,
@@ -24,15 +24,13 @@ import dataclasses
 import os
 import platform
 import statistics
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import ROOT  # noqa: E402
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.physics.contact.solver import FactorCache, solve  # noqa: E402
@@ -54,7 +52,7 @@ def main():
     long_log = np.tile(log, (-(-m // len(log)), 1))[:m]
     lines = [f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python "
              f"{platform.python_version()}, numpy {np.__version__}. Command: "
-             f"`python benchmarks/coupled_lift_off.py --repeats {args.repeats} "
+             f"`python -m benchmarks.coupled_lift_off --repeats {args.repeats} "
              f"--minutes {args.minutes:g}`.", "",
              "| preset | samples | bonded everywhere `solve` [s] | lift-off released `solve` [s] "
              "| one hour, released [s] | event samples | not converged (released) | "

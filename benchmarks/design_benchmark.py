@@ -2,8 +2,8 @@
 
 Usage (from the repository root, after `pip install -e .[dask]`):
 
-    python benchmarks/design_benchmark.py              # full run, writes benchmarks/DESIGN_RESULTS.md
-    python benchmarks/design_benchmark.py --quick      # 100 designs, one repeat, nothing written
+    python -m benchmarks.design_benchmark              # full run, writes benchmarks/DESIGN_RESULTS.md
+    python -m benchmarks.design_benchmark --quick      # 100 designs, one repeat, nothing written
 
 The log (60,000 samples, synthetic, fixed seed, rounded to 4 decimals like a
 load-cell export) and the study are generated into a temporary folder. Rows
@@ -43,7 +43,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
+from benchmarks.common import ROOT, load_example  # noqa: E402
 CONFIG = ROOT / "configs" / "harmony_upper_arm.yaml"
 COLS = ["time", "Fx", "Fy", "Fz", "Mx", "My", "Mz"]
 
@@ -126,10 +126,7 @@ def tolerance_cost(study: Path, log: Path, force_tol: float, moment_tol: float,
 
 def task_log_file(folder: Path) -> Path:
     """The bundled example's 10-minute assistance log (examples/design/make_task_log.py)."""
-    sys.path.insert(0, str(ROOT / "examples" / "design"))
-    from make_task_log import task_log
-
-    t, W = task_log()
+    t, W = load_example("design/make_task_log.py").task_log()
     path = folder / "task_log.csv"
     pd.DataFrame(np.column_stack([np.round(t, 3), np.round(W, 4)]), columns=COLS).to_csv(
         path, index=False)
@@ -193,7 +190,7 @@ def main():
     print("\n".join(lines))
     if not args.quick:
         text = ["# phri design benchmark", "",
-                "Command: `python benchmarks/design_benchmark.py` (from the repository root, "
+                "Command: `python -m benchmarks.design_benchmark` (from the repository root, "
                 "after `pip install -e .[dask]`).", "",
                 "A 1,000-design grid (strap tension x cuff-profile scale x stiffness at "
                 "location 5, 10 levels each) over a 10-minute 100 Hz log (60,000 samples), "

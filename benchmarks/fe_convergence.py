@@ -2,8 +2,8 @@
 
 Writes ``benchmarks/FE_CONVERGENCE.md``. Run from the repository root::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/fe_convergence.py            # full (~40 min)
-    OPENBLAS_NUM_THREADS=1 python benchmarks/fe_convergence.py --quick    # smoke run
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_convergence            # full (~40 min)
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_convergence --quick    # smoke run
 
 Parts (geometry: configs/harmony_upper_arm.yaml, R = 45 mm, 21 tiled cells, each patch a
 plate in its cell with the default patch gap between neighbours, section 7):
@@ -34,20 +34,16 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
-
-from reference_layer import kappa_integral_equation  # noqa: E402  (independent of the FE)
-
-from phri_spring.physics.continuum import tissue as fe  # noqa: E402
-from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
+from benchmarks.common import ROOT, harmony_geometry
+from phri_spring.physics.continuum import tissue as fe
+from references import rigid_cuff_fe
+from tests.support.reference_layer import kappa_integral_equation  # independent of the FE
 
 WRENCHES = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
 
 
 def harmony():
-    return cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    return harmony_geometry()
 
 
 def model_forces(g, t, nu, level, length_factor=fe.DEFAULT_LENGTH_FACTOR, ends="fixed"):
@@ -55,16 +51,16 @@ def model_forces(g, t, nu, level, length_factor=fe.DEFAULT_LENGTH_FACTOR, ends="
                                          length_factor=length_factor, ends=ends)
     W = np.eye(6)
     return {
-        "N": fe.rigid_cuff_patch_forces(ops.K, g, W, N=ops.N),
-        "ne": fe.rigid_cuff_patch_forces(ops.K, g, W),
-        "3free": fe.rigid_cuff_patch_forces(fe.translational_block(ops.K, "free"), g, W),
-        "3fixed": fe.rigid_cuff_patch_forces(fe.translational_block(ops.K, "fixed"), g, W),
+        "N": rigid_cuff_fe.rigid_cuff_patch_forces(ops.K, g, W, N=ops.N),
+        "ne": rigid_cuff_fe.rigid_cuff_patch_forces(ops.K, g, W),
+        "3free": rigid_cuff_fe.rigid_cuff_patch_forces(fe.translational_block(ops.K, "free"), g, W),
+        "3fixed": rigid_cuff_fe.rigid_cuff_patch_forces(fe.translational_block(ops.K, "fixed"), g, W),
         "info": ops.info,
     }
 
 
 def direct_forces(g, t, nu, level, length_factor, ends):
-    Kc, Fn, info = fe.direct_rigid_cuff_response(g, t, nu, level=level,
+    Kc, Fn, info = rigid_cuff_fe.direct_rigid_cuff_response(g, t, nu, level=level,
                                                  length_factor=length_factor, ends=ends)
     return (Fn @ np.linalg.solve(Kc, np.eye(6))).T, info
 
@@ -85,10 +81,9 @@ def maxdiff_pct(f, ref):
 
 _TIME_BUILD = """
 import os, sys, time, tempfile
-sys.path.insert(0, {root!r})
-from phri_spring.physics.cuff.geometry import cuff_geometry
+from benchmarks.common import harmony_geometry
 from phri_spring.io.cache.surface_stiffness import load_or_build
-g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+g = harmony_geometry()
 t0 = time.perf_counter()
 K, info = load_or_build(g, {t}, 1.0e5, {nu}, cache_dir={cache!r})
 print(time.perf_counter() - t0, info["source"])
@@ -99,10 +94,10 @@ def time_build(t, nu, runs, cache_root):
     build, reload_ = [], []
     for k in range(runs):
         cache = str(Path(cache_root) / f"run{k}-{t}-{nu}")
-        code = _TIME_BUILD.format(root=str(ROOT), t=t, nu=nu, cache=cache)
+        code = _TIME_BUILD.format(t=t, nu=nu, cache=cache)
         for dest in (build, reload_):
             out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                                 check=True, env=dict(os.environ))
+                                 check=True, env=dict(os.environ), cwd=ROOT)
             sec, src = out.stdout.split()
             assert src == ("built" if dest is build else "cache"), src
             dest.append(float(sec))
@@ -205,7 +200,7 @@ def _row(vals, fmt="{:.2f}"):
 def write_report(out, quick, levels, shipped, ref_level, ref_lf, conv, val, variants, infos,
                  length, punch, timing):
     L = []
-    cmd = "OPENBLAS_NUM_THREADS=1 python benchmarks/fe_convergence.py" + (" --quick" if quick
+    cmd = "OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_convergence" + (" --quick" if quick
                                                                           else "")
     L.append("# Built-in tissue FE: convergence and validation")
     L.append("")

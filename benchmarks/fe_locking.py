@@ -10,21 +10,18 @@ the FE's unit-modulus builder directly, past that check, to show what it would g
 
 Run from the repository root (about 2 minutes on 2 cores)::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/fe_locking.py
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_locking
 """
 
 from __future__ import annotations
 
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from phri_spring.physics.continuum import tissue as fe  # noqa: E402
+from references import rigid_cuff_fe  # noqa: E402
 from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
 
 E = 3.0e4
@@ -37,7 +34,7 @@ AXES = ("Kx", "Ky", "Kz", "Krx", "Kry", "Krz")
 def stiffness(g, nu, level):
     K1, _, info = fe._build_unit_operators(g, THICKNESS, nu, level, fe.DEFAULT_LENGTH_FACTOR,
                                            "fixed")
-    T = fe.rigid_cuff_map(g.points)
+    T = rigid_cuff_fe.rigid_cuff_map(g.points)
     H = E * np.diag(T.T @ K1 @ T)
     scale = np.array([1e-3] * 3 + [np.pi / 180.0] * 3)       # N/mm and N*m/deg
     return H * scale, info

@@ -28,13 +28,13 @@ of free skin between neighbouring plates removes the jump. Two studies:
 Run from the repository root (K builds are cached on disk, so a second run, or one with
 more gaps, costs only the new builds)::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/fe_patch_gap.py three --levels 2,3,4,5
-    OPENBLAS_NUM_THREADS=1 python benchmarks/fe_patch_gap.py presets \\
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_patch_gap three --levels 2,3,4,5
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_patch_gap presets \\
         --presets human_upper_arm --levels 2,3,4,5 --gaps 0,1,1.5,2,3,4
-    OPENBLAS_NUM_THREADS=1 python benchmarks/fe_patch_gap.py presets \\
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_patch_gap presets \\
         --presets harmony_upper_arm --levels 2,3,4,5 --gaps 0,1.5,2,3
     # the same with Coulomb friction, patches out of contact fully released:
-    OPENBLAS_NUM_THREADS=1 python benchmarks/fe_patch_gap.py presets --friction 1.2 ...   # 0.5, 2.0
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.fe_patch_gap presets --friction 1.2 ...   # 0.5, 2.0
 
 Level 5 of a full cuff takes 3-5 minutes and 7.6 GB per FE build on 2 cores: run one
 command at a time, with the same ``--cache`` so that later runs reuse the builds.
@@ -55,8 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import ROOT  # noqa: E402
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.physics.continuum import tissue as fe  # noqa: E402

@@ -1,6 +1,6 @@
 """Speed of Coulomb friction (docs/model.md section 12) on a one-hour log.
 
-    python benchmarks/friction_benchmark.py [--repeats 3] [--mu 0.5] [--arms compliant,rigid]
+    python -m benchmarks.friction_benchmark [--repeats 3] [--mu 0.5] [--arms compliant,rigid]
         [--out benchmarks/FRICTION.md]
 
 The one-hour log is ``examples/wrench_log.csv`` (the paper's horizontal I-Act loading at
@@ -30,8 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import ROOT  # noqa: E402
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.physics.contact.solver import solve  # noqa: E402

@@ -4,13 +4,13 @@ Run from the repository root (progress on stderr, a markdown summary on stdout, 
 number in the JSON; ``benchmarks/HYPERELASTIC_REFERENCE.md`` holds a run and what it
 means)::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/hyperelastic_reference.py --levels 2,3,4
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.hyperelastic_reference --levels 2,3,4
 
 The FE is :mod:`phri_spring.physics.hyperelastic.fe` (felupe, extra ``hyper``) on the linear FE's
 mesh. Per mesh level:
 
 a. cross-check at small load: 1 N along and 0.1 N*m about each cuff axis, no preload,
-   against the project's linear FE (``fe_reference.direct_rigid_cuff_response``): patch
+   against the project's linear FE (``references.rigid_cuff_fe.direct_rigid_cuff_response``): patch
    normal forces, largest difference in % of the peak (the neo-Hookean FE, and felupe's
    linear law on the same mesh);
 b. push/pull: the cuff moved 0..10 mm into the arm (+y: the patches sit on the -y side,
@@ -47,13 +47,11 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import config_from_dict, load_yaml  # noqa: E402
 from phri_spring.physics.hyperelastic import fe as fh  # noqa: E402
 from phri_spring.physics.hyperelastic import mesh as fh_mesh  # noqa: E402
-from phri_spring.physics.continuum.reference import direct_rigid_cuff_response  # noqa: E402
+from references.rigid_cuff_fe import direct_rigid_cuff_response  # noqa: E402
 from phri_spring.workflows.common import continuum_modulus, coupled_model  # noqa: E402
 
 FORCES = (11.1, 33.4, 55.6)      # N, the paper's load levels (contact_reference.py)
@@ -278,7 +276,7 @@ def main(argv=None):
         Path(args.out).write_text(json.dumps(res, indent=1))
         summary(res)
         return
-    cmd = " ".join(["OPENBLAS_NUM_THREADS=1 python benchmarks/hyperelastic_reference.py",
+    cmd = " ".join(["OPENBLAS_NUM_THREADS=1 python -m benchmarks.hyperelastic_reference",
                     *(argv if argv is not None else sys.argv[1:])])
     cfg = rigid_config(args.config)
     levels = [int(v) for v in args.levels.split(",")]

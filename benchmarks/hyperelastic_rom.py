@@ -3,7 +3,7 @@
 Run from the repository root (progress on stderr, the markdown report on stdout or
 ``--out``)::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/hyperelastic_rom.py --levels 1,2 \
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.hyperelastic_rom --levels 1,2 \
         --cache-dir /tmp/phri_cache --out benchmarks/HYPERELASTIC_ROM.md
 
 The config is ``configs/human_upper_arm.yaml`` with a rigid cuff (``cuff.stiffness: inf``)
@@ -45,8 +45,7 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 import yaml  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import ROOT  # noqa: E402
 
 from phri_spring.io.cache import hyper_reduction as store  # noqa: E402
 from phri_spring.io.config import config_from_dict  # noqa: E402

@@ -1,7 +1,7 @@
 """``phri live`` round trip at 1 kHz: samples lost, latency, phri's CPU (benchmarks/LIVE.md).
 
-    python benchmarks/live_benchmark.py --source lsl   --seconds 600   # the issue's 10 minutes
-    python benchmarks/live_benchmark.py --source netft --seconds 600
+    python -m benchmarks.live_benchmark --source lsl   --seconds 600   # the issue's 10 minutes
+    python -m benchmarks.live_benchmark --source netft --seconds 600
 
 ``lsl``: a test outlet of six channels pushes the example log's wrenches at
 1 kHz, each stamped with ``local_clock()`` at its push; ``phri live --source
@@ -32,8 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(REPO / "tests"))
+from benchmarks.common import ROOT as REPO
 
 
 def _wrenches(n: int) -> np.ndarray:
@@ -71,7 +70,7 @@ def main(argv=None):
         outlet = pylsl.StreamOutlet(info)
         cmd += ["--source", f"lsl:bench-in-{tag}"]
     else:
-        from netft_emulator import NetFtEmulator
+        from tests.support.netft_emulator import NetFtEmulator
 
         emu = NetFtEmulator(np.round(w * 1e6).astype(np.int64), rate_hz=args.rate)
         cmd += ["--source", f"netft:127.0.0.1:{emu.port}"]

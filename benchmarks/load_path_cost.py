@@ -7,7 +7,7 @@ config), then times, over the same solutions (CPU time, best of 5):
 * the per-sample (m, n, 3) route it replaced (``load_path.force_parts`` of every chunk);
 * the solve of the log itself, for scale.
 
-    python benchmarks/load_path_cost.py [LOG.csv]   # default: a generated one-hour log
+    python -m benchmarks.load_path_cost [LOG.csv]   # default: a generated one-hour log
 """
 
 from __future__ import annotations
@@ -22,8 +22,7 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "benchmarks"))
+from benchmarks.common import HARMONY_CONFIG, make_log  # noqa: E402
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.io.logs import read_wrench_log  # noqa: E402
@@ -44,14 +43,12 @@ def best_cpu(fn, repeats=5):
 
 
 def main():
-    cfg = load_config(ROOT / "configs" / "harmony_upper_arm.yaml")
+    cfg = load_config(HARMONY_CONFIG)
     model = model_from_config(cfg, "compliant")
     with tempfile.TemporaryDirectory() as tmp:
         if len(sys.argv) > 1:
             log = Path(sys.argv[1])
         else:
-            from run_benchmarks import make_log
-
             log = Path(tmp) / "hour.csv"
             make_log(log, 360_000, seed=1)
         _, w_lc = read_wrench_log(log)

@@ -5,7 +5,7 @@ bonded and with interface.friction_coefficient = 0.5 (friction runs with the lin
 law: the preset's tissue.stiffening is dropped for them, as the friction benchmark does).
 Prints a Markdown table of the summary's shares (``SimulateSummary.load_shares``).
 
-    python benchmarks/load_shares.py [--mu 0.5]
+    python -m benchmarks.load_shares [--mu 0.5]
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Time commands and read their peak resident memory, from a small process.
 
-    python benchmarks/measure_cmd.py SPEC_JSON   -> JSON on stdout
+    python -m benchmarks.measure_cmd SPEC_JSON   -> JSON on stdout
 
 SPEC_JSON is ``{"repeats": N, "warmup": true, "cmds": [[CMD, ARG, ...], ...],
 "outputs": [PATH or null, ...]}``. The commands run in rotation (A B C A B C

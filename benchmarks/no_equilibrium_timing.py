@@ -1,6 +1,6 @@
 """Time of every sample of a log with friction, one sample at a time, and why some have no answer.
 
-    python benchmarks/no_equilibrium_timing.py CONFIG ARM MU LOG [--rows N] [--repeats 3]
+    python -m benchmarks.no_equilibrium_timing CONFIG ARM MU LOG [--rows N] [--repeats 3]
 
 LOG is a wrench log CSV (load-cell columns Fx..Mz) or ``random20`` (uniform random forces
 of +-20 N on each load-cell axis, no moment, independent samples, seed 0). Each sample is
@@ -15,7 +15,6 @@ largest sample time.
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
@@ -23,8 +22,6 @@ import numpy as np
 import pandas as pd
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.physics.contact.no_equilibrium import REASONS, explain  # noqa: E402

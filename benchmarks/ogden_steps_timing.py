@@ -1,8 +1,8 @@
 """Time of ``fe_punch_ogden.punch_stiffening`` on the human preset (alpha = 10) with a given
 number of load steps per 10 mm, and the beta it finds. Run from the repository root:
 
-    python benchmarks/ogden_steps_timing.py --steps 20
-    python benchmarks/ogden_steps_timing.py --steps 50
+    python -m benchmarks.ogden_steps_timing --steps 20
+    python -m benchmarks.ogden_steps_timing --steps 50
 
 (benchmarks/STIFFENING.md gives the figures and how they were timed; needs the fe extra).
 """

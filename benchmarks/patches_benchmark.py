@@ -2,9 +2,9 @@
 grid: ``phri simulate`` (compliant arm) on the same one-hour log, whole process, the two
 commands alternated and compared pair by pair (ratio of each pair, then the median).
 
-    python benchmarks/patches_benchmark.py [--repeats 5] [--workdir /tmp/phri_patches]
+    python -m benchmarks.patches_benchmark [--repeats 5] [--workdir /tmp/phri_patches]
 
-The log is benchmarks/run_benchmarks.py's make_log(path, 360000, 1) (one hour at 100 Hz);
+The log is benchmarks/common.py's make_log(path, 360000, 1) (one hour at 100 Hz);
 the configs are configs/harmony_upper_arm.yaml and examples/pressure_mat_16x16.yaml.
 Prints the median wall and CPU (user + system) seconds of each and the paired ratios.
 """
@@ -17,15 +17,10 @@ import resource
 import shutil
 import statistics
 import subprocess
-import sys
 import time
 from pathlib import Path
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
-sys.path.insert(0, str(HERE))
-
-from run_benchmarks import make_log  # noqa: E402
+from benchmarks.common import HARMONY_CONFIG, ROOT, make_log
 
 
 def run(cmd) -> tuple:
@@ -49,7 +44,7 @@ def main() -> None:
     if not log.exists():
         make_log(log, 360000, 1)
     phri = shutil.which("phri") or "phri"
-    grid = [phri, "simulate", str(ROOT / "configs" / "harmony_upper_arm.yaml"), str(log),
+    grid = [phri, "simulate", str(HARMONY_CONFIG), str(log),
             "-o", str(a.workdir / "grid.parquet"), "-q"]
     mat = [phri, "simulate", str(ROOT / "examples" / "pressure_mat_16x16.yaml"), str(log),
            "-o", str(a.workdir / "mat.parquet"), "-q"]

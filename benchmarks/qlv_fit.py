@@ -6,17 +6,13 @@ tau = (0.4, 5.0) s) with force noise of 0.5 % of the peak, a sensor offset and 0
 encoder steps, is fitted with two Prony terms; the worst and mean errors over the seeds are
 printed, with the fit's wall time per trial.
 
-Run from the repository root:  python benchmarks/qlv_fit.py [--seeds 20]
+Run from the repository root:  python -m benchmarks.qlv_fit [--seeds 20]
 """
 
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from pathlib import Path
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 

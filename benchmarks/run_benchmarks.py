@@ -2,11 +2,11 @@
 
 Usage (from the repository root, after `pip install -e .`):
 
-    python benchmarks/run_benchmarks.py                 # full run, writes benchmarks/RESULTS.md
-    python benchmarks/run_benchmarks.py --quick         # fewer repeats, no ten-hour log
-    python benchmarks/run_benchmarks.py --only compare  # one group of rows (printed; not
-    python benchmarks/run_benchmarks.py --only plot     #   written to RESULTS.md without --out)
-    python benchmarks/run_benchmarks.py --only simulate # the 1 h log against the per-sample loop
+    python -m benchmarks.run_benchmarks                 # full run, writes benchmarks/RESULTS.md
+    python -m benchmarks.run_benchmarks --quick         # fewer repeats, no ten-hour log
+    python -m benchmarks.run_benchmarks --only compare  # one group of rows (printed; not
+    python -m benchmarks.run_benchmarks --only plot     #   written to RESULTS.md without --out)
+    python -m benchmarks.run_benchmarks --only simulate # the 1 h log against the per-sample loop
 
 Logs are generated into a temporary folder (synthetic, fixed seeds, values
 rounded to 4 decimals like a load-cell export). phri-spring's modules are
@@ -30,7 +30,6 @@ import json  # noqa: E402
 import platform  # noqa: E402
 import shutil  # noqa: E402
 import statistics  # noqa: E402
-import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
@@ -38,68 +37,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
-CONFIG = ROOT / "configs" / "harmony_upper_arm.yaml"
-COLS = ["Fx", "Fy", "Fz", "Mx", "My", "Mz"]
-
-
-def child_env():
-    env = dict(os.environ)
-    for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        env.pop(v, None)
-    return env
-
-
-def make_log(path: Path, n: int, seed: int) -> None:
-    import pyarrow as pa
-    import pyarrow.csv as pacsv
-    import pyarrow.parquet as pq
-
-    from phri_spring.synthetic.wrench import smooth_random_log
-
-    chunk = 1_000_000
-    writer = None
-    for s in range(0, n, chunk):
-        e = min(n, s + chunk)
-        t, w = smooth_random_log(e - s, seed=seed + s)
-        t = np.round((np.arange(s, e)) / 100.0, 2)
-        data = {"time": t}
-        data.update({c: np.round(w[:, j], 4) for j, c in enumerate(COLS)})
-        table = pa.table(data)
-        if writer is None:
-            writer = (pacsv.CSVWriter(str(path), table.schema) if path.suffix == ".csv"
-                      else pq.ParquetWriter(str(path), table.schema))
-        writer.write_table(table)
-    writer.close()
-
-
-def run_interleaved(cmds, repeats: int, warmup: bool = True, cpu: bool = False):
-    """For each command: (median wall time [s], max peak RSS [MB], all wall times), and
-    with ``cpu`` its median CPU time (user + system) [s] fourth.
-
-    The commands run in rotation (A B C A B C ...) after a warm-up round, so the
-    machine's drift touches them alike; before each run the command's output
-    (the argument after ``-o``) is deleted and the file systems synced, untimed.
-    Measured by benchmarks/measure_cmd.py, a small process, so that this (large)
-    process's memory does not count in a command's peak RSS.
-    """
-    cmds = [[str(a) for a in c] for c in cmds]
-    outputs = [c[c.index("-o") + 1] if "-o" in c else None for c in cmds]
-    spec = {"repeats": repeats, "warmup": warmup, "cmds": cmds, "outputs": outputs}
-    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "measure_cmd.py"),
-                          json.dumps(spec)], capture_output=True, text=True, env=child_env(),
-                         cwd=ROOT, check=True).stdout
-    res = json.loads(out)
-    if "error" in res:
-        raise RuntimeError(res["error"])
-    return [(statistics.median(r["walls"]), max(r["rss"]), r["walls"])
-            + ((statistics.median(r["cpus"]),) if cpu else ()) for r in res["results"]]
-
-
-def run_process(cmd, repeats: int, warmup: bool = True, cpu: bool = False):
-    """Median wall time [s], max peak RSS [MB] and all wall times of one command (and
-    with ``cpu`` its median CPU time [s])."""
-    return run_interleaved([cmd], repeats, warmup, cpu)[0]
+from benchmarks.common import (COLS, HARMONY_CONFIG as CONFIG, ROOT,  # noqa: E402,F401
+                               child_env, make_log, run_interleaved, run_process)
 
 
 def compile_bytecode() -> None:
@@ -118,22 +57,7 @@ def compile_bytecode() -> None:
                 compileall.compile_dir(folder, quiet=1)
 
 
-def pin_one_cpu():
-    try:
-        cpu = sorted(os.sched_getaffinity(0))[0]
-        os.sched_setaffinity(0, {cpu})
-        return cpu
-    except (AttributeError, OSError):
-        return None
-
-
-def median_time(fn, repeats):
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts)
+from benchmarks.common import median_time, pin_one_cpu  # noqa: E402,F401
 
 
 def fine_model(rows: int, angles: int):
@@ -420,7 +344,7 @@ def main():
               f"{platform.python_version()}, numpy {np.__version__}, pyarrow {pyarrow.__version__}."
               f" {time.strftime('%Y-%m-%d')}.")
     lines = markdown()
-    text = (f"{header}\n\nCommand: `python benchmarks/run_benchmarks.py"
+    text = (f"{header}\n\nCommand: `python -m benchmarks.run_benchmarks"
             f"{' --quick' if args.quick else ''}`\n\n" + "\n".join(lines) + "\n")
     Path(args.out).write_text(text)
     print("\n" + text)

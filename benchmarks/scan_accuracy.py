@@ -7,7 +7,7 @@ and compared with the circle's closed forms: the largest normal error [rad], and
 relative errors of the turnings and the areas over the 21 elements, as the mean over the seeds.
 Run from the repository root:
 
-    python benchmarks/scan_accuracy.py
+    python -m benchmarks.scan_accuracy
 
 (numbers: benchmarks/SCAN.md).
 """

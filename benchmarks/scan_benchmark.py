@@ -6,7 +6,7 @@ then read (trimesh) and the paper's 21 elements are computed on it
 and the peak resident memory (single runs: wall time on a shared machine is noisy). Run from
 the repository root, e.g.
 
-    /usr/bin/time -v python benchmarks/scan_benchmark.py --triangles 1000000
+    /usr/bin/time -v python -m benchmarks.scan_benchmark --triangles 1000000
 
 (numbers: benchmarks/SCAN.md).
 """

@@ -6,9 +6,9 @@ that the two runs differ by the section figure only. Time the two forms from out
 alternated, e.g.
 
     for i in 1 2 3 4 5; do
-      /usr/bin/time -f %e python benchmarks/section_figure.py configs/human_thigh.yaml \\
+      /usr/bin/time -f %e python -m benchmarks.section_figure configs/human_thigh.yaml \\
           examples/wrench_log.csv /tmp/sec
-      /usr/bin/time -f %e python benchmarks/section_figure.py --skip-section \\
+      /usr/bin/time -f %e python -m benchmarks.section_figure --skip-section \\
           configs/human_thigh.yaml examples/wrench_log.csv /tmp/sec
     done
 """

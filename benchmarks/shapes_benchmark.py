@@ -7,21 +7,19 @@ the handles strap models, the compliant and the rigid arm; at zero load and unde
 paper's loads (11.1, 33.4, 55.6 N along the load cell's z (horizontal) and y (vertical),
 both signs). Writes benchmarks/SHAPES.md (the speed section is kept as found).
 
-    python benchmarks/shapes_benchmark.py
+    python -m benchmarks.shapes_benchmark
 """
 
 from __future__ import annotations
 
 import copy
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 from scipy.special import ellipe
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
 
 from phri_spring.io.config import config_from_dict  # noqa: E402
 from phri_spring.io.config.yaml_loader import load_yaml  # noqa: E402
@@ -102,7 +100,7 @@ def main():
     rows = run()
     head = f"""# Limb shapes: peak pressure on elliptic sections
 
-Written by `python benchmarks/shapes_benchmark.py` (deterministic: no timing, no random
+Written by `python -m benchmarks.shapes_benchmark` (deterministic: no timing, no random
 numbers). The Harmony config (`configs/harmony_upper_arm.yaml`: 3 rows x 7 locations from
 75 to 285 deg, a 0.045 m circle, 15 N strap) with its section replaced by ellipses of axis
 ratio b/a of the same perimeter ({2 * math.pi * RADIUS * 1000:.1f} mm), the major axis

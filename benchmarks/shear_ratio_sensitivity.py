@@ -16,7 +16,7 @@ sets ``interface.shear_ratio`` in a copy of the config and prints the diagonal o
 interface stiffness ``phri stiffness`` reports (at the load-cell origin, load-cell axes)
 and the torsion about the arm axis. Run from the repository root::
 
-    python benchmarks/shear_ratio_sensitivity.py            # Markdown table on stdout
+    python -m benchmarks.shear_ratio_sensitivity            # Markdown table on stdout
 
 The coupled rows need the ``fe`` extra; the tissue FE is built once per preset (about
 20 s) and cached on disk, after which the script takes a few seconds.
@@ -25,14 +25,12 @@ The coupled rows need the ``fe`` extra; the tissue FE is built once per preset (
 from __future__ import annotations
 
 import argparse
-import sys
 import tempfile
 from pathlib import Path
 
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import ROOT  # noqa: E402
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.workflows.stiffness.matrix import interface_stiffness_report  # noqa: E402

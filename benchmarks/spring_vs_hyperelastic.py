@@ -1,6 +1,6 @@
 """The spring model's exponential tissue law against the neo-Hookean continuum (human preset).
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/spring_vs_hyperelastic.py --punch
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.spring_vs_hyperelastic --punch
 
 (from the repository root) prints a markdown report to stdout: about 1 min with
 ``--punch``, 2 s without; it writes nothing unless ``--out FILE`` is given. It compares,
@@ -47,8 +47,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import ROOT  # noqa: E402
 
 from phri_spring.io.config import yaml_loader  # noqa: E402
 from phri_spring.io.config import config_from_dict  # noqa: E402

@@ -1,6 +1,6 @@
 """Speed of the exponential tissue law (docs/model.md 11.3) against the linear one.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/stiffening_benchmark.py [--repeats 5] \
+    OPENBLAS_NUM_THREADS=1 python -m benchmarks.stiffening_benchmark [--repeats 5] \
         [--out benchmarks/STIFFENING.md]
 
 Two one-hour 100 Hz logs (360,000 samples each): a smooth random wrench
@@ -31,8 +31,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
+from benchmarks.common import ROOT  # noqa: E402
 
 from phri_spring.io.config import load_config  # noqa: E402
 from phri_spring.io.config.yaml_loader import _StrictSafeLoader  # noqa: E402
@@ -144,7 +143,7 @@ def main():
         "Command:",
         "",
         "```bash",
-        "OPENBLAS_NUM_THREADS=1 python benchmarks/stiffening_benchmark.py "
+        "OPENBLAS_NUM_THREADS=1 python -m benchmarks.stiffening_benchmark "
         f"--repeats {args.repeats}",
         "```",
         "",

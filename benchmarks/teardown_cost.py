@@ -1,9 +1,9 @@
 """What ``phri``'s exit through ``os._exit`` saves: the same command with the interpreter's
 usual teardown instead (``--teardown``). Run from the repository root, e.g.
 
-    python benchmarks/teardown_cost.py simulate configs/harmony_upper_arm.yaml \\
+    python -m benchmarks.teardown_cost simulate configs/harmony_upper_arm.yaml \\
         examples/wrench_log.csv -o /tmp/forces.csv -q
-    python benchmarks/teardown_cost.py --teardown simulate ...   (the same arguments)
+    python -m benchmarks.teardown_cost --teardown simulate ...   (the same arguments)
 
 and time both whole processes (benchmarks/STARTUP.md gives the figures and the command).
 """

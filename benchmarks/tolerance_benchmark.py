@@ -3,10 +3,10 @@ and without ``--tolerance``, run in turn (A B A B ...), median wall times and th
 
 Usage (from the repository root, after ``pip install -e .``):
 
-    python benchmarks/tolerance_benchmark.py                  # 5 pairs, CSV output
-    python benchmarks/tolerance_benchmark.py --repeats 9 --output-format parquet
+    python -m benchmarks.tolerance_benchmark                  # 5 pairs, CSV output
+    python -m benchmarks.tolerance_benchmark --repeats 9 --output-format parquet
 
-The log is the synthetic one-hour log of ``run_benchmarks.py`` (``make_log``: 100 Hz,
+The log is the synthetic one-hour log of ``benchmarks/common.py`` (``make_log``: 100 Hz,
 360,000 samples, fixed seed), written to a temporary folder.
 """
 
@@ -20,8 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from run_benchmarks import CONFIG, make_log  # noqa: E402
+from benchmarks.common import HARMONY_CONFIG as CONFIG, make_log
 
 
 def main() -> None:

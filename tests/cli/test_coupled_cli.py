@@ -4,7 +4,7 @@ stiffness, and every bad continuum input (one line, exit status, nothing written
 The rigid-cuff check ties the contact solver to the FE: with a rigid cuff held by a
 preload that keeps every patch pressing, the coupled model's force increments for the
 six unit wrenches are the FE's rigid-cuff response (T^T K T) u = W, f = N T u
-(``fe_tissue.rigid_cuff_patch_forces``, written independently of the solver), which
+(``rigid_cuff_fe.rigid_cuff_patch_forces``, written independently of the solver), which
 benchmarks/FE_CONVERGENCE.md validates against a finer direct FE (<= 0.97 % RMSE).
 """
 
@@ -23,6 +23,7 @@ from phri_spring.physics.contact.solver import solve
 from phri_spring.workflows.common import geometry_from_config, model_from_config
 from phri_spring.workflows.stiffness.matrix import interface_stiffness_report
 
+from references import rigid_cuff_fe
 from support.helpers import HARMONY_CONFIG, run_phri as run, stderr_of
 from support.coupled_reference import kernel_K as _kernel_K
 
@@ -64,7 +65,7 @@ def test_rigid_cuff_force_increments_are_the_fe_rigid_cuff_response():
         sol = solve(model, W)
         assert sol.converged.all() and sol.contact.all()
         for k in range(6):
-            ref = fe_tissue.rigid_cuff_patch_forces(ops.K, g, W[k + 1], ops.N)
+            ref = rigid_cuff_fe.rigid_cuff_patch_forces(ops.K, g, W[k + 1], ops.N)
             np.testing.assert_allclose(sol.forces[k + 1] - sol.forces[0], ref, rtol=0,
                                        atol=1e-9 * np.abs(ref).max())
 

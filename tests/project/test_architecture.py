@@ -21,7 +21,9 @@ import tokenize
 import pytest
 
 ROOT = REPO
-PACKAGES = {"phri_spring": ROOT / "phri_spring", "phri_cli": ROOT / "cli"}
+# references/ (the reference FEs, outside the installed package) keeps the same rules
+PACKAGES = {"phri_spring": ROOT / "phri_spring", "phri_cli": ROOT / "cli",
+            "references": ROOT / "references"}
 MAX_LINES = 600
 
 # ------------------------------------------------------------------------------ allow-lists

@@ -21,6 +21,7 @@ import subprocess
 import sys
 import sysconfig
 import venv
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -46,6 +47,9 @@ def test_wheel_installed_outside_the_checkout_runs_the_quick_start(tmp_path):
     run([sys.executable, "-m", "build", "--outdir", dist, ROOT], cwd=tmp_path)
     wheels, sdists = sorted(dist.glob("*.whl")), sorted(dist.glob("*.tar.gz"))
     assert len(wheels) == 1 and len(sdists) == 1, sorted(dist.iterdir())
+    # the reference FEs, the benchmarks and the tests stay in the checkout
+    top = {n.split("/")[0] for n in zipfile.ZipFile(wheels[0]).namelist()}
+    assert not top & {"references", "benchmarks", "tests"}, sorted(top)
 
     env_dir = tmp_path / "env"
     venv.create(env_dir, with_pip=False, symlinks=os.name != "nt")

@@ -43,6 +43,16 @@ HARMONY_DICT = {
 }
 
 
+def harmony_geometry():
+    """The Harmony-like test cuff (3 rows 25 mm apart, R = 45 mm, 7 locations from 75 degrees
+    35 degrees apart) read from ``configs/harmony_upper_arm.yaml``: the one definition the
+    tests and the benchmarks (``benchmarks/common.py``) share."""
+    from phri_spring.io.config import load_config
+    from phri_spring.workflows.common import geometry_from_config
+
+    return geometry_from_config(load_config(HARMONY_CONFIG))
+
+
 def harmony_dict() -> dict:
     return copy.deepcopy(HARMONY_DICT)
 

@@ -2,7 +2,7 @@
 
 The pipeline head shared by the condensed surface operators
 (:mod:`phri_spring.physics.continuum.tissue`) and the reference rigid-cuff FE
-(:mod:`phri_spring.physics.continuum.reference`): mesh (:mod:`phri_spring.physics.continuum.mesh`),
+(:mod:`references.rigid_cuff_fe`, outside the package): mesh (:mod:`phri_spring.physics.continuum.mesh`),
 volume stiffness, the forms on the skin under the cuff, the tie of the angular seam
 and the split of the dofs into skin under the cuff, fixed and free
 (:func:`assemble_tissue_fe`); and the solve for the reactions of displacements

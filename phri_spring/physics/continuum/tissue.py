@@ -18,8 +18,6 @@ output. The FE is split by job, and every public name of the split is importable
 * :mod:`phri_spring.physics.continuum.mesh` -- the mesh and the checks of the FE's inputs;
 * :mod:`phri_spring.physics.continuum.assembly` -- assembly on the mesh, shared with the
   reference FE;
-* :mod:`phri_spring.physics.continuum.reference` -- the reference rigid-cuff FE
-  (:func:`direct_rigid_cuff_response`, :func:`rigid_cuff_patch_forces`);
 * :mod:`phri_spring.physics.continuum.punch` -- :func:`flat_punch_stiffness` /
   :func:`modulus_from_indenter`, a rigid, frictionless flat cylindrical punch on a layer
   bonded to a rigid base (axisymmetric quadratic FE), to turn indenter stiffness into a
@@ -46,8 +44,6 @@ from .mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, DEFAULT_PATCH_GAP,  # n
                       check_material, patch_gap_problem, patch_plates, single_radius)
 from .punch import (PUNCH_RADIUS, flat_punch_stiffness, modulus_from_indenter,  # noqa: F401
                        sneddon_punch_stiffness)
-from .reference import (direct_rigid_cuff_response, rigid_cuff_map,  # noqa: F401
-                           rigid_cuff_patch_forces)
 
 __all__ = [
     "FE_EXTRA_HINT",
@@ -63,9 +59,6 @@ __all__ = [
     "condensed_surface_stiffness",
     "condensed_surface_operators",
     "translational_block",
-    "rigid_cuff_map",
-    "rigid_cuff_patch_forces",
-    "direct_rigid_cuff_response",
     "flat_punch_stiffness",
     "modulus_from_indenter",
     "sneddon_punch_stiffness",

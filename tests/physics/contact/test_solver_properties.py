@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from support import reference_model as ref
-from support.helpers import build_both, physics_cases, reference_of, wrenches
+from support.helpers import build_both, physics_cases, reference_of, wrenches, harmony_geometry
 from phri_spring.physics.cuff.geometry import cuff_geometry
 from phri_spring.physics.springs.model import build_model
 from phri_spring.physics.contact.solver import Solver, shear_forces, solve
@@ -102,7 +102,7 @@ def test_single_sample_call_matches_reference(case, w):
 
 # --------------------------------------------------------------------------- symmetry
 def _harmony_like(kt_row, kc_angle, strap, tension):
-    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    g = harmony_geometry()
     kt = np.repeat(kt_row, 7)
     kc = np.tile(kc_angle, 3)
     return build_model(g, kt, kc, strap_model=strap, strap_tension=tension)
@@ -155,7 +155,7 @@ def test_linearity_while_no_contact_changes(case, w1, w2, hoop, tension):
 
 def test_linearity_holds_often_with_full_contact():
     # a guard that the property above is not vacuous: hoop strap, small loads, full contact
-    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    g = harmony_geometry()
     m = build_model(g, 45000.0, 2e5, strap_tension=15.0)
     w1 = np.array([0, 2.0, 3.0, 0.05, 0, 0])
     w2 = np.array([1.0, 0, -4.0, 0, 0.1, -0.05])
@@ -243,7 +243,7 @@ def test_batch_is_independent_of_order_chunking_and_warm_start(case, seed, n):
 
 
 def test_every_sample_reports_convergence_and_iterations():
-    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    g = harmony_geometry()
     m = build_model(g, 45000.0, np.tile([31250, 62500, 125000, 250000, 500000, 1e6, 500000], 3))
     rng = np.random.default_rng(0)
     W = rng.normal(size=(500, 6)) * [200, 200, 200, 15, 15, 15]
@@ -258,7 +258,7 @@ def test_exhausted_budget_is_reported_not_hidden(budget):
     # Loads that lift many contacts cannot settle in one or two linear solves from the
     # full-contact start. Whatever the budget, a sample flagged converged must carry the
     # right forces; the others must be flagged and NaN.
-    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    g = harmony_geometry()
     kc = np.tile([31250, 62500, 125000, 250000, 500000, 1e6, 500000], 3)
     m = build_model(g, 45000.0, kc)
     rm = ref.build(ref.make_geometry({"A": -0.025, "B": 0.0, "C": 0.025}, 0.045, 0.025, 75.0,

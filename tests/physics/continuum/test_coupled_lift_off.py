@@ -18,14 +18,13 @@ import pytest
 
 from phri_spring.io.config import load_config
 from phri_spring.physics.continuum.coupled import LIFT_OFF_MU, build_coupled_model
-from phri_spring.physics.cuff.geometry import cuff_geometry
 from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
 from phri_spring.physics.contact.solver import solve
 from phri_spring.physics.laws import LinearLaw
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 from phri_spring.workflows.columns.shear import shear_extras
 
-from support.helpers import REPO
+from support.helpers import REPO, harmony_geometry
 
 
 def _config(preset, mu):
@@ -120,7 +119,7 @@ def test_spring_arms_shear_columns_balance(arm, mu):
 def test_a_block_diagonal_coupled_arm_is_the_spring_model_with_the_same_cone():
     """With independent patches the coupled arm's default is the spring model with
     friction at LIFT_OFF_MU (docs/model.md 10.3's reduction, with the interface of 10.2)."""
-    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    g = harmony_geometry()
     k_t = tissue_element_stiffness(np.full(g.n, 4242.0), g.areas)
     eta = 0.4
     K = np.zeros((3 * g.n, 3 * g.n))
@@ -149,7 +148,7 @@ def test_frictionless_coupled_arm_flags_axial_loads_at_once():
     """mu = 0 on a cylinder: normal forces have no axial part and a patch's tied moments
     none at all, so any axial force has no equilibrium; each such sample is flagged after
     one small test, not after a stalled Newton iteration (docs/model.md 12.3)."""
-    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    g = harmony_geometry()
     d2 = np.sum((g.points[:, None, :] - g.points[None, :, :]) ** 2, axis=-1)
     rot = np.diag([1.0, 1.0, 1.0, 1e-3, 1e-3, 1e-3])
     C = 2e-5 * np.kron(np.eye(g.n), rot) + 2e-5 * np.kron(np.exp(-d2 / 0.03**2), rot)

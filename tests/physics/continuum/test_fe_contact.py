@@ -1,8 +1,8 @@
-"""The contact reference FE (phri_spring.physics.continuum.contact_reference): node-by-node unilateral
+"""The contact reference FE (references.contact_fe): node-by-node unilateral
 contact of rigid plates on the tissue, frictionless and with Coulomb friction.
 
 Expected values come from independent routes: the bonded rigid-cuff FE of
-fe_reference (imposed displacements, its own solve), the coupled model's condensation
+references.rigid_cuff_fe (imposed displacements, its own solve), the coupled model's condensation
 (L2-projected plates), and conditions the tests evaluate from the geometry themselves
 (equilibrium, no penetration, no pull, the friction cone, mirror symmetry). A coarse
 mesh (level 1, a short tube) on a small full-circle cuff keeps the file fast.
@@ -20,7 +20,8 @@ from phri_spring.physics.cuff.geometry import cuff_geometry, rigid_body_map
 
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 
-from phri_spring.physics.continuum import contact_reference as fc  # noqa: E402
+from references import contact_fe as fc  # noqa: E402
+from references import rigid_cuff_fe  # noqa: E402
 from phri_spring.physics.continuum import tissue as fe_tissue  # noqa: E402
 
 #: two rows x four 90-degree patches round the whole arm: mirror symmetric in x and z
@@ -111,8 +112,8 @@ def check_state(fe, model, sol, mu):
 
 def test_bonded_increment_equals_the_direct_rigid_cuff_fe(fe):
     """Small load, every node pressing and sticking (mu huge): the increment from the
-    preloaded cuff is the bonded rigid cuff of fe_reference (a different solve)."""
-    Kc, Fn, _ = fe_tissue.direct_rigid_cuff_response(GEOM, T_TISSUE, NU, level=1,
+    preloaded cuff is the bonded rigid cuff of references.rigid_cuff_fe (a different solve)."""
+    Kc, Fn, _ = rigid_cuff_fe.direct_rigid_cuff_response(GEOM, T_TISSUE, NU, level=1,
                                                      length_factor=LF)
     W = np.array([0.02, 0.03, -0.025, 2e-4, -1e-4, 3e-4])
     s0 = fc.solve_contact(fe, RIGID, np.zeros(6), friction_coefficient=1e3)

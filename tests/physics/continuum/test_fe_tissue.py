@@ -16,11 +16,13 @@ from hypothesis import strategies as st
 
 from phri_spring.physics.continuum import tissue as fe
 from support.reference_layer import kappa_integral_equation
+from references import rigid_cuff_fe
 from phri_spring.physics.cuff.geometry import cuff_geometry
+from support.helpers import harmony_geometry  # noqa: E402
 
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
 
-HARMONY = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+HARMONY = harmony_geometry()
 
 
 @pytest.fixture(scope="module")
@@ -117,9 +119,9 @@ def test_rigid_cuff_motions_match_the_direct_fe(harmony_l1):
     exactly (isoparametric quadratic mesh), so both are the same FE problem on the same
     mesh, computed through different operators.
     """
-    Kc, Fn, _ = fe.direct_rigid_cuff_response(HARMONY, 0.02, 0.45, level=1,
+    Kc, Fn, _ = rigid_cuff_fe.direct_rigid_cuff_response(HARMONY, 0.02, 0.45, level=1,
                                               length_factor=fe.DEFAULT_LENGTH_FACTOR)
-    T = fe.rigid_cuff_map(HARMONY.points)
+    T = rigid_cuff_fe.rigid_cuff_map(HARMONY.points)
     KT = T.T @ harmony_l1.K @ T
     np.testing.assert_allclose(KT, Kc, rtol=0, atol=1e-9 * np.max(np.abs(Kc)))
     np.testing.assert_allclose(harmony_l1.N @ T, Fn, rtol=0, atol=1e-9 * np.max(np.abs(Fn)))
@@ -130,7 +132,7 @@ def test_patch_forces_balance_the_cuff_wrench():
     g = cuff_geometry([-0.01, 0.01], 0.04, 0.02, 0.0, 45.0, 8)
     ops = fe.condensed_surface_operators(g, 0.012, 1.0, 0.3, level=1)
     W = np.diag([1.0, 2.0, 3.0, 0.1, 0.2, 0.3])
-    T = fe.rigid_cuff_map(g.points)
+    T = rigid_cuff_fe.rigid_cuff_map(g.points)
     u = np.linalg.solve(T.T @ ops.K @ T, W)
     F = ops.K @ T @ u
     np.testing.assert_allclose(T.T @ F, W, atol=1e-10)
@@ -197,13 +199,13 @@ def test_full_circle_cuff_is_cyclically_symmetric():
 
 def test_rigid_cuff_patch_forces_shapes_and_equilibrium(harmony_l1):
     W = np.eye(6)
-    f = fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W)
+    f = rigid_cuff_fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W)
     assert f.shape == (6, HARMONY.n)
-    assert fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W[2]).shape == (HARMONY.n,)
+    assert rigid_cuff_fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W[2]).shape == (HARMONY.n,)
     # a +y force on the cuff is carried mostly by the patches whose inward normal is +y
     # (location 3, at 180 deg), in compression (on this coarse mesh the gapped plates of
     # the outer rows, wider than the middle row's, take a little more than B3)
-    fy = fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W[1], N=harmony_l1.N)
+    fy = rigid_cuff_fe.rigid_cuff_patch_forces(harmony_l1.K, HARMONY, W[1], N=harmony_l1.N)
     assert HARMONY.labels[int(np.argmax(fy))][1:] == "3" and fy.max() > 0
 
 

@@ -25,6 +25,7 @@ from phri_spring.physics.continuum import tissue as fe
 from phri_spring.physics.continuum.assembly import _facet_arrays
 from phri_spring.physics.cuff.geometry import cuff_geometry, rigid_body_map
 
+from references import rigid_cuff_fe
 from support.helpers import HARMONY_CONFIG, run_phri as run, stderr_of
 
 pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the test extra")
@@ -136,16 +137,16 @@ def test_rigid_cuff_on_the_plates_is_the_direct_fe(gap):
     """T^T K T is the direct FE of the cuff bonded to the plates only (tiled: all of them)."""
     ops = fe.condensed_surface_operators(TILED, 0.01, 1.0, 0.45, level=1, patch_gap=gap,
                                          length_factor=1.0)
-    Kc, Fn, _ = fe.direct_rigid_cuff_response(TILED, 0.01, 0.45, level=1, length_factor=1.0,
+    Kc, Fn, _ = rigid_cuff_fe.direct_rigid_cuff_response(TILED, 0.01, 0.45, level=1, length_factor=1.0,
                                               patch_gap=gap)
-    T = fe.rigid_cuff_map(TILED.points)
+    T = rigid_cuff_fe.rigid_cuff_map(TILED.points)
     np.testing.assert_allclose(T.T @ ops.K @ T, Kc, rtol=0, atol=1e-9 * np.max(np.abs(Kc)))
     np.testing.assert_allclose(ops.N @ T, Fn, rtol=0, atol=1e-9 * np.max(np.abs(Fn)))
 
 
 def test_gapped_plates_make_a_softer_cuff():
     """Less skin bonded, a softer rigid cuff in every direction (the gap is not ignored)."""
-    T = fe.rigid_cuff_map(TILED.points)
+    T = rigid_cuff_fe.rigid_cuff_map(TILED.points)
     diag = [np.diag(T.T @ fe.condensed_surface_operators(
         TILED, 0.01, 1.0, 0.45, level=1, patch_gap=gap, length_factor=1.0).K @ T)
         for gap in (0.0, 0.003)]

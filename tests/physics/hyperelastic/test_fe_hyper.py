@@ -1,7 +1,7 @@
 """The hyperelastic reference FE (phri_spring.physics.hyperelastic.fe, felupe).
 
 Expected values come from the project's linear FE on the same mesh
-(fe_reference.direct_rigid_cuff_response, scikit-fem), from statics (the patch forces add
+(references.rigid_cuff_fe.direct_rigid_cuff_response, scikit-fem), from statics (the patch forces add
 up to the cuff's resultant) and from a property of the neo-Hookean law (a pushed layer
 stiffens, a pulled one softens). The human preset's cuff on a coarse mesh (level 1,
 1.5 thicknesses of tissue beyond each cuff edge) keeps the file fast.
@@ -20,10 +20,10 @@ pytest.importorskip("skfem", reason="the fe extra (scikit-fem) is part of the te
 from phri_spring.errors import UsageError  # noqa: E402
 from phri_spring.physics.hyperelastic import fe as fh  # noqa: E402
 from phri_spring.physics.continuum.coupled import patch_frames  # noqa: E402
-from phri_spring.physics.continuum.reference import direct_rigid_cuff_response  # noqa: E402
-from phri_spring.physics.cuff.geometry import cuff_geometry  # noqa: E402
+from references.rigid_cuff_fe import direct_rigid_cuff_response  # noqa: E402
+from support.helpers import harmony_geometry  # noqa: E402
 
-GEOM = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)   # human preset
+GEOM = harmony_geometry()   # the human preset's cuff is the Harmony's
 T, E, NU, LF = 0.025, 3.0e4, 0.45, 1.5
 
 

@@ -19,12 +19,12 @@ from scipy.optimize import root
 from phri_spring.physics.hyperelastic import reduced as hr
 from phri_spring.physics.continuum.coupled import build_coupled_model
 from phri_spring.physics.hyperelastic.coupled import HyperCoupledModel
-from phri_spring.physics.cuff.geometry import cuff_geometry
 from phri_spring.physics.contact.solver import Solver, solve, solve_per_sample
 from phri_spring.physics.response.stiffness import interface_stiffness
+from support.helpers import harmony_geometry  # noqa: E402
 
 K = len(hr.EXPONENTS)
-GEOM = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+GEOM = harmony_geometry()
 
 
 def _spd(n, rng, scale):

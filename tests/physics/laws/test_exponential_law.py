@@ -27,7 +27,7 @@ from phri_spring.physics.springs.model import build_model
 from phri_spring.physics.contact.solver import solve
 from phri_spring.physics.laws import ExponentialLaw, LinearLaw, SeriesElement, make_law
 
-from support.helpers import HARMONY_CONFIG, run_phri, stderr_of
+from support.helpers import HARMONY_CONFIG, run_phri, stderr_of, harmony_geometry
 
 
 def F(d, k0, beta):
@@ -266,7 +266,7 @@ def test_summary_line_names_the_law(tmp_path, log_small):
 
 # --------------------------------------------------------------------------- the two iterations
 def _harmony_exponential(beta, kc_scale=1.0):
-    g = cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    g = harmony_geometry()
     kc = kc_scale * np.tile([31250, 62500, 125000, 250000, 500000, 1.0e6, 500000], 3)
     return build_model(g, 3000.0 * np.ones(g.n), kc, strap_tension=15.0, law="exponential",
                        law_parameters={"stiffening": beta})

@@ -19,13 +19,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize
 
-from phri_spring.physics.cuff.geometry import cuff_geometry
 from phri_spring.physics.springs.model import build_model, tissue_element_stiffness
 from phri_spring.physics.contact.solver import Solver, solve, solve_per_sample
 from phri_spring.physics.laws import (TISSUE_LAWS, LawParameter, SeriesElement, TissueLaw,
                                              make_law, register_law)
 
-from support.helpers import HARMONY_CONFIG, run_phri, stderr_of
+from support.helpers import HARMONY_CONFIG, run_phri, stderr_of, harmony_geometry
 
 
 class ToyQuadratic(TissueLaw):
@@ -54,7 +53,7 @@ def toy_registered():
 
 
 def _geometry():
-    return cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+    return harmony_geometry()
 
 
 def _model(rate, strap="hoop", k_c=None, seed=0):

@@ -14,7 +14,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from support import reference_model as ref
-from support.helpers import HARMONY_CONFIG, harmony_dict
+from support.helpers import HARMONY_CONFIG, harmony_dict, harmony_geometry
 from phri_spring.errors import ConfigError
 from phri_spring.io.config import config_from_dict, load_config
 from phri_spring.physics.cuff.geometry import cuff_geometry
@@ -26,10 +26,6 @@ from phri_spring.physics.springs.stiffness import indenter_to_element
 from phri_spring.workflows.common import cuff_wrench, model_from_config
 
 ETA_045 = 1.0 / (2.0 * 1.45)          # default shear ratio, nu = 0.45
-
-
-def harmony_geometry():
-    return cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
 
 
 def ring(count, start=0.0, radius=0.05, row_width=0.02, x=0.0):

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from phri_spring.physics.continuum.coupled import rigid_patch_map
-from phri_spring.physics.continuum.tissue import rigid_cuff_map
+from references.rigid_cuff_fe import rigid_cuff_map
 from phri_spring.physics.cuff.geometry import element_jacobians, rigid_body_map, skew
 
 _coord = st.floats(-1.0, 1.0, allow_nan=False, allow_infinity=False)

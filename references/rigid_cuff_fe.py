@@ -17,9 +17,9 @@ import time
 
 import numpy as np
 
-from .assembly import assemble_tissue_fe
-from .mesh import DEFAULT_LENGTH_FACTOR, DEFAULT_PATCH_GAP
-from ..cuff.geometry import rigid_body_map
+from phri_spring.physics.continuum.assembly import assemble_tissue_fe
+from phri_spring.physics.continuum.mesh import DEFAULT_LENGTH_FACTOR, DEFAULT_PATCH_GAP
+from phri_spring.physics.cuff.geometry import rigid_body_map
 
 __all__ = ["rigid_cuff_map", "rigid_cuff_patch_forces", "direct_rigid_cuff_response"]
 

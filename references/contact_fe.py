@@ -47,11 +47,12 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from ...errors import ConvergenceError, ModelInputError
-from .coupled import patch_frames
-from .assembly import factor, assemble_tissue_fe
-from .mesh import DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, check_material, single_radius
-from ..cuff.geometry import rigid_body_map
+from phri_spring.errors import ConvergenceError, ModelInputError
+from phri_spring.physics.continuum.coupled import patch_frames
+from phri_spring.physics.continuum.assembly import factor, assemble_tissue_fe
+from phri_spring.physics.continuum.mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL,
+                                               check_material, single_radius)
+from phri_spring.physics.cuff.geometry import rigid_body_map
 
 __all__ = ["ContactFE", "ContactSolution", "build_contact_fe", "solve_contact",
            "solve_contact_path"]

@@ -1,0 +1,2 @@
+"""The benchmarks of phri-spring: run each from the repository root as
+``python -m benchmarks.NAME`` (shared helpers: :mod:`benchmarks.common`)."""
