@@ -190,6 +190,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     law = _law_clause(config, arm)
     mu = summary.friction_coefficient
     contact = f", friction mu = {mu:g}" if mu is not None else ""
+    if summary.max_strap_tension_n is not None:
+        peak += f"; largest strap tension {summary.max_strap_tension_n:.4g} N"
     if summary.exposure is not None:
         from phri_spring.workflows.columns.tolerance import exposure_text
 

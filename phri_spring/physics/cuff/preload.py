@@ -81,7 +81,8 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
     f0 : ndarray, shape (n,)
         ``hoop``: initial normal force of every element [N]; ``handles``: zeros.
     W_handles : ndarray, shape (6,), or None
-        ``handles``: the strap's wrench on the cuff [N, N*m] (handles at the cuff's
+        ``handles`` (and ``band``, at its preload tension): the strap's wrench on the
+        cuff [N, N*m] (handles at the cuff's
         edges and the mean row position unless given); ``hoop``: None (the wrench
         follows from f0 and the arm model).
     """
@@ -94,7 +95,7 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
         # a band cannot pull skin outward: across a concave stretch (psi_e < 0) it bridges
         # the hollow and presses nothing, so that u = 0 stays the unloaded equilibrium
         return hoop_preload(tension, np.maximum(turning, 0.0), geometry.row_width, row_w), None
-    if model == "handles":
+    if model in ("handles", "band"):   # band: the handles' wrench at the preload tension
         if handle_angles_deg is None and geometry.free_layout:
             # a free layout's edges: its extreme patch edges in angle (a cuff opening
             # that does not wrap past 180 deg from its middle)
@@ -119,4 +120,4 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
                                   "strap_model")
         return np.zeros(geometry.n), handles_preload(tension, ta, tb, ax,
                                                      geometry.handles_radius)
-    raise ValueError(f"strap model: expected 'hoop' or 'handles', got {model!r}")
+    raise ValueError(f"strap model: expected 'hoop', 'handles' or 'band', got {model!r}")
