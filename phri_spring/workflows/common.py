@@ -100,7 +100,7 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
 #: config key a physics input error is about (ModelInputError.quantity -> key)
 _QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear_ratio",
                   "strap_model": "strap.model", "strap_stiffness": "strap.stiffness",
-                  "strap_width": "strap.width",
+                  "strap_width": "strap.width", "strap_handle_angles": "strap.handle_angles",
                   "tissue_law": "tissue.law", "friction_coefficient": "interface.friction_coefficient",
                   "stiffness": "cuff.stiffness", "surface_stiffness": "tissue.continuum",
                   "normal_output": "tissue.continuum"}

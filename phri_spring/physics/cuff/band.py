@@ -90,7 +90,7 @@ def band_path(geometry, handle_angles_deg=None, handle_axial_position=None) -> B
     if not gap > 1e-6 or not covered > 1e-6:
         raise ModelInputError("the band needs uncovered skin between the "
                               "shell's edges (the shell covers the whole circumference)",
-                              "strap_model")
+                              "strap_handle_angles")
     if geometry.strap_section is None:
         r = float(geometry.handles_radius)
         return BandPath(h=np.asarray(h, dtype=float), length=r * gap, min_radius=r)
