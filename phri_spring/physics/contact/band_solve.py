@@ -167,8 +167,11 @@ def _solve_tension(model, plain, W, max_iterations, cache) -> BandSolution:
         stretch = s - ut @ h
         Tb = k_b * np.maximum(stretch, 0.0)
         g = Tt - Tb
-        tol = 1e-10 * np.maximum(np.maximum(Tt, Tb), 1.0)
-        done = (np.abs(g) <= tol) | ~sol.converged
+        # the springs are solved to round-off of their own (a nonlinear law's Newton
+        # finish): the tension is asked for to a relative 1e-8, or until its bracket does
+        # not hold two distinct answers
+        tol = 1e-8 * np.maximum(np.maximum(Tt, Tb), 1.0)
+        done = (np.abs(g) <= tol) | (hi[todo] - lo[todo] <= tol) | ~sol.converged
         idx = todo[done]
         u[idx], forces[idx], contact[idx] = ut[done], sol.forces[done], sol.contact[done]
         converged[idx] = sol.converged[done]

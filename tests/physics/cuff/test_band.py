@@ -91,8 +91,8 @@ def test_pull_away_from_the_shell_by_hand(F):
     k_b = k_strap / (R * math.radians(115.0))
     T = k_b * h_y * F / (K_yy + k_b * h_y ** 2)
     assert sol.converged
-    assert sol.strap_tension == pytest.approx(T, rel=1e-9)
-    assert sol.u[1] == pytest.approx((-F + T * h_y) / K_yy, rel=1e-9)
+    assert sol.strap_tension == pytest.approx(T, rel=1e-8)
+    assert sol.u[1] == pytest.approx((-F + T * h_y) / K_yy, rel=1e-8)
     assert np.array_equal(sol.contact, np.tile(np.cos(theta) > 0, 3))
 
 
