@@ -274,7 +274,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
     if cfg.strap_model == "band":
         raise ConfigError("the band strap is not available with the coupled arm (its "
                           "continuum is condensed for a strap wrench that does not follow the "
-                          "cuff); use --arm compliant or rigid", file=cfg.path, key="strap.model")
+                          "cuff); use --arm compliant or rigid", file=cfg.path, key="strap.stiffness")
     if cfg.continuum_thickness is None:
         raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
                           "young_modulus [Pa] unless tissue.stiffness holds indenter values)",

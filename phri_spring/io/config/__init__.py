@@ -465,7 +465,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
     if g.scan is not None and st.model == "band":
         raise ConfigError("the band strap is not available on a scanned limb yet (the band's "
                           "path over the scan is not defined); use hoop or handles",
-                          file=path, key="strap.model")
+                          file=path, key="geometry.scan")
     if g.scan is not None:
         if free:
             raise ConfigError("sensor patches on a scanned limb are not available yet (a patch "

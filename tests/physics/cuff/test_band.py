@@ -203,9 +203,9 @@ def test_refused_combinations_name_the_key():
     cfg = config_from_dict(_cfg(model="band", width=0.05, stiffness=300.0))
     with pytest.raises(ConfigError) as exc:
         model_from_config(cfg, "coupled")
-    assert exc.value.key == "strap.model" and "coupled arm" in str(exc.value)
+    assert exc.value.key == "strap.stiffness" and "coupled arm" in str(exc.value)
     d = _cfg(model="band", width=0.05, stiffness=300.0)
     d.setdefault("interface", {})["friction_coefficient"] = 0.5
     with pytest.raises(ConfigError) as exc:
         model_from_config(config_from_dict(d), "compliant")
-    assert exc.value.key == "strap.model" and "friction" in str(exc.value)
+    assert exc.value.key == "interface.friction_coefficient" and "band" in str(exc.value)
