@@ -57,6 +57,13 @@ class BandModel(SpringModel):
     def solve_band(self, W, max_iterations: int = 100, cache=None) -> "BandSolution":
         return solve_band(self, W, max_iterations=max_iterations, cache=cache)
 
+    def solve_wrenches(self, W, max_iterations: int = 100):
+        """``(u, forces, iterations, converged, contact)`` of :func:`solve_band` for wrenches
+        (m, 6): the form of a model that solves its own samples, which the single-sample
+        :class:`~phri_spring.physics.contact.solver.Solver` (``phri live``) calls."""
+        sol = solve_band(self, W, max_iterations=max_iterations)
+        return sol.u, sol.forces, sol.iterations, sol.converged, sol.contact
+
     def band_pressure_kpa(self, tension) -> np.ndarray:
         """The band's largest pressure on the skin it covers [kPa], T / (w rho_min)."""
         return np.asarray(tension, dtype=float) / (self.band_width * self.band_min_radius) / 1000.0

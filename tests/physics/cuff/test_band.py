@@ -19,7 +19,7 @@ from scipy.integrate import quad
 from phri_spring.errors import ConfigError, ModelInputError
 from phri_spring.io.config import config_from_dict
 from phri_spring.physics.contact.band_solve import band_model
-from phri_spring.physics.contact.solver import solve
+from phri_spring.physics.contact.solver import Solver, solve
 from phri_spring.physics.cuff.band import band_path, laplace_pressure
 from phri_spring.physics.cuff.geometry import cuff_geometry, section_geometry
 from phri_spring.physics.limb.sections import EllipseSection
@@ -209,3 +209,14 @@ def test_refused_combinations_name_the_key():
     with pytest.raises(ConfigError) as exc:
         model_from_config(config_from_dict(d), "compliant")
     assert exc.value.key == "interface.friction_coefficient" and "band" in str(exc.value)
+
+
+def test_the_single_sample_solver_follows_the_band():
+    """``phri live``'s one-sample solver gives the batch's answer, sample by sample."""
+    model = _band(500.0)
+    W = np.array([[0, -60, 5, 0, 0.5, 0], [3, 40, -5, 0.2, 0, 0.1], [0, 0, 0, 0, 0, 0.0]])
+    batch = solve(model, W)
+    solver = Solver(model)
+    for w, f in zip(W, batch.forces):
+        assert np.allclose(solver.forces(w), f, atol=1e-9)
+        assert solver.last_converged
