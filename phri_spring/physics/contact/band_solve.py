@@ -64,6 +64,14 @@ class BandModel(SpringModel):
         sol = solve_band(self, W, max_iterations=max_iterations)
         return sol.u, sol.forces, sol.iterations, sol.converged, sol.contact
 
+    def tangent_stiffness(self, u, contact=None) -> np.ndarray:
+        """dW/du (6, 6) at displacement u (6,): the springs' tangent plus the taut band's
+        k_b h h^T (its tension falls as h . u grows)."""
+        K = SpringModel.tangent_stiffness(self, u, contact)
+        if self.band_k > 0 and self.band_stretch - float(np.asarray(u, float) @ self.band_h) > 0:
+            K = K + self.band_k * np.outer(self.band_h, self.band_h)
+        return K
+
     def band_pressure_kpa(self, tension) -> np.ndarray:
         """The band's largest pressure on the skin it covers [kPa], T / (w rho_min)."""
         return np.asarray(tension, dtype=float) / (self.band_width * self.band_min_radius) / 1000.0

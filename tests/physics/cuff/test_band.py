@@ -220,3 +220,18 @@ def test_the_single_sample_solver_follows_the_band():
     for w, f in zip(W, batch.forces):
         assert np.allclose(solver.forces(w), f, atol=1e-9)
         assert solver.last_converged
+
+
+def test_tangent_stiffness_is_the_derivative_of_the_answer():
+    """model.tangent_stiffness (phri stiffness) against central differences of solves:
+    K (u(W + e) - u(W - e)) = 2 e, with the band taut."""
+    model = _band(500.0)
+    W = np.array([0.0, -30.0, 2.0, 0.1, 0.0, 0.05])
+    sol = solve(model, W)
+    assert sol.strap_tension > 15.0
+    K = model.tangent_stiffness(sol.u, sol.contact)
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = 1e-3 if j < 3 else 1e-5
+        du = solve(model, W + e).u - solve(model, W - e).u
+        assert np.allclose(K @ du, 2 * e, atol=1e-8)
