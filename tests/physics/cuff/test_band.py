@@ -235,3 +235,20 @@ def test_tangent_stiffness_is_the_derivative_of_the_answer():
         e[j] = 1e-3 if j < 3 else 1e-5
         du = solve(model, W + e).u - solve(model, W - e).u
         assert np.allclose(K @ du, 2 * e, atol=1e-8)
+
+
+def test_sensor_patches_take_the_band():
+    """A free layout (configs/harmony_24_panels.yaml): the band runs between the layout's
+    extreme edges, holds its tension at zero wrench and stretches under a pull."""
+    from phri_spring.io.config.yaml_loader import load_yaml
+    from support.helpers import REPO
+
+    path = REPO / "configs" / "harmony_24_panels.yaml"
+    raw = load_yaml(path)
+    raw["strap"] = {"tension": 15.0, "model": "band", "width": 0.05, "stiffness": 500.0}
+    cfg = config_from_dict(raw, path=path, base_dir=path.parent)
+    model = model_from_config(cfg, "compliant")
+    sol = solve(model, np.array([[0.0] * 6, [0, -50.0, 0, 0, 0, 0]]))
+    assert sol.converged.all()
+    assert sol.strap_tension[0] == pytest.approx(15.0, rel=1e-7)
+    assert sol.strap_tension[1] > 15.0
