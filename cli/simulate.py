@@ -78,7 +78,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     force [N], then contacts_in_touch, peak_pressure_kPa,
     peak_pressure_element, peak_pressure_to_pain_threshold [-],
     solver_iterations and converged; with a tolerance curve (--tolerance or
-    tolerance.curve), also dose_max [-] and dose_element.
+    tolerance.curve), also dose_max [-] and dose_element; with strap.model:
+    band, also strap_tension_N and strap_pressure_kPa.
 
     \b
     Example:
