@@ -149,7 +149,7 @@ def solve_band(model: BandModel, wrench, *, max_iterations: int = 100,
     single = W.ndim == 1
     W = np.atleast_2d(W)
     plain = model.plain()
-    h, k_b, T0 = model.band_h, model.band_k, model.band_tension
+    k_b, T0 = model.band_k, model.band_tension
     m = len(W)
     if k_b == 0.0:   # a constant tension: the handles model
         sol = solve(plain, W, max_iterations=max_iterations, cache=cache)

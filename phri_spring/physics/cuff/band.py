@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...errors import ModelInputError
-from .preload import strap_preload
+from .preload import handle_edges, strap_preload
 
 __all__ = ["BandPath", "band_path", "laplace_pressure"]
 
@@ -53,27 +53,6 @@ def laplace_pressure(tension, width: float, radius) -> np.ndarray:
     return np.asarray(tension, dtype=float) / (float(width) * np.asarray(radius, dtype=float))
 
 
-def _edges(geometry, handle_angles_deg, handle_axial_position):
-    """The shell's edge angles [rad] and the band's axial position [m], as the ``handles``
-    strap model places its handles."""
-    # strap_preload's handles branch knows where a layout's edges are; its wrench at unit
-    # tension is h, and the angles follow from the same defaults
-    _, h = strap_preload(geometry, 1.0, "handles", handle_angles_deg, handle_axial_position)
-    if handle_angles_deg is None and geometry.free_layout:
-        mid = math.atan2(np.sin(geometry.theta).mean(), np.cos(geometry.theta).mean())
-        rel = (geometry.theta - mid + math.pi) % (2 * math.pi) - math.pi
-        handle_angles_deg = (math.degrees(mid + np.min(rel - geometry.span / 2)),
-                             math.degrees(mid + np.max(rel + geometry.span / 2)))
-    if handle_angles_deg is None:
-        th = np.degrees(geometry.theta[: geometry.n_angles])
-        half = np.degrees(geometry.span[0]) / 2.0
-        handle_angles_deg = (th[0] - half, th[-1] + half)
-    xs = geometry.x if geometry.free_layout else geometry.x[:: geometry.n_angles]
-    ax = float(np.mean(xs)) if handle_axial_position is None else float(handle_axial_position)
-    ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
-    return float(ta), float(tb), ax, h
-
-
 def band_path(geometry, handle_angles_deg=None, handle_axial_position=None) -> BandPath:
     """The band's path from the shell's edge theta_b around the uncovered side to its edge
     theta_a + 2 pi (the edges as the ``handles`` model places its handles: default the
@@ -84,7 +63,9 @@ def band_path(geometry, handle_angles_deg=None, handle_axial_position=None) -> B
     ModelInputError
         If the shell's edges leave no uncovered skin, or the geometry has no outline.
     """
-    ta, tb, ax, h = _edges(geometry, handle_angles_deg, handle_axial_position)
+    ta, tb, ax = handle_edges(geometry, handle_angles_deg, handle_axial_position)
+    # the band's pull per newton is the handles' wrench at unit tension
+    _, h = strap_preload(geometry, 1.0, "handles", handle_angles_deg, handle_axial_position)
     covered = (tb - ta) % (2 * math.pi)
     gap = 2 * math.pi - covered
     if not gap > 1e-6 or not covered > 1e-6:
