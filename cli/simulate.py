@@ -78,7 +78,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     force [N], then contacts_in_touch, peak_pressure_kPa,
     peak_pressure_element, peak_pressure_to_pain_threshold [-],
     solver_iterations and converged; with a tolerance curve (--tolerance or
-    tolerance.curve), also dose_max [-] and dose_element.
+    tolerance.curve), also dose_max [-] and dose_element; with strap.model:
+    band, also strap_tension_N and strap_pressure_kPa.
 
     \b
     Example:
@@ -190,6 +191,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
     law = _law_clause(config, arm)
     mu = summary.friction_coefficient
     contact = f", friction mu = {mu:g}" if mu is not None else ""
+    if summary.max_strap_tension_n is not None:
+        peak += f"; largest strap tension {summary.max_strap_tension_n:.4g} N"
     if summary.exposure is not None:
         from phri_spring.workflows.columns.tolerance import exposure_text
 

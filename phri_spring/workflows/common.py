@@ -99,7 +99,8 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
 
 #: config key a physics input error is about (ModelInputError.quantity -> key)
 _QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear_ratio",
-                  "strap_model": "strap.model",
+                  "strap_model": "strap.model", "strap_stiffness": "strap.stiffness",
+                  "strap_width": "strap.width", "strap_handle_angles": "strap.handle_angles",
                   "tissue_law": "tissue.law", "friction_coefficient": "interface.friction_coefficient",
                   "stiffness": "cuff.stiffness", "surface_stiffness": "tissue.continuum",
                   "normal_output": "tissue.continuum"}
@@ -127,6 +128,10 @@ def history_model(model, cfg: Config):
     if getattr(model, "has_history", False) or getattr(model, "arm", "") == "rigid":
         return model
     key = "tissue.relaxation" if cfg.tissue_relaxation is not None else "tissue.activation_factor"
+    if hasattr(model, "solve_band"):
+        raise ConfigError("relaxation and activation are not available with the band strap "
+                          "(the band's tension is solved per sample, not along the tissue's "
+                          "time path); use hoop or handles", file=cfg.path, key=key)
     if not hasattr(model, "element"):
         raise ConfigError("relaxation and activation act on the spring arm's tissue springs; "
                           "the coupled arm's continuum layer is elastic (use --arm compliant)",
@@ -150,14 +155,20 @@ def _spring_model(cfg: Config, arm: str):
                           "(k_e = k_c = inf); expected a finite cuff stiffness [N/m]",
                           file=cfg.path, key="cuff.stiffness")
     try:
-        return build_model(geom, k_t, k_c, arm=arm, shear_ratio=cfg.shear_ratio,
-                           poisson_ratio=cfg.poisson_ratio, strap_tension=cfg.strap_tension,
-                           strap_model=cfg.strap_model, handle_angles_deg=cfg.handle_angles_deg,
-                           handle_axial_position=cfg.strap_axial_position,
-                           pain_threshold_kpa=cfg.pain_threshold_kpa,
-                           law=cfg.tissue_law_class or cfg.tissue_law,
-                           law_parameters=cfg.tissue_law_parameters,
-                           friction_coefficient=cfg.friction_coefficient)
+        model = build_model(geom, k_t, k_c, arm=arm, shear_ratio=cfg.shear_ratio,
+                            poisson_ratio=cfg.poisson_ratio, strap_tension=cfg.strap_tension,
+                            strap_model=cfg.strap_model, handle_angles_deg=cfg.handle_angles_deg,
+                            handle_axial_position=cfg.strap_axial_position,
+                            pain_threshold_kpa=cfg.pain_threshold_kpa,
+                            law=cfg.tissue_law_class or cfg.tissue_law,
+                            law_parameters=cfg.tissue_law_parameters,
+                            friction_coefficient=cfg.friction_coefficient)
+        if cfg.strap_model != "band":
+            return model
+        from ..physics.contact.band_solve import band_model   # docs/model.md section 3.1
+
+        return band_model(model, cfg.strap_stiffness, cfg.strap_width, cfg.strap_tension,
+                          cfg.handle_angles_deg, cfg.strap_axial_position)
     except ModelInputError as exc:
         key = _QUANTITY_KEYS.get(exc.quantity) if exc.quantity != "stiffness" else None
         if exc.quantity == "geometry" and cfg.patches is not None:
@@ -260,6 +271,10 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
     from ..physics.continuum.coupled import build_coupled_model, scale_patches
 
     key = "tissue.continuum"
+    if cfg.strap_model == "band":
+        raise ConfigError("the band strap is not available with the coupled arm (its "
+                          "continuum is condensed for a strap wrench that does not follow the "
+                          "cuff); use --arm compliant or rigid", file=cfg.path, key="strap.stiffness")
     if cfg.continuum_thickness is None:
         raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
                           "young_modulus [Pa] unless tissue.stiffness holds indenter values)",

@@ -35,7 +35,8 @@ import numpy as np
 from ..errors import PhriError
 
 __all__ = ["Combination", "Outcome", "combinations", "run_combination", "base_config",
-           "markdown_table", "CONTINUUM_ARMS", "INTERFACES", "CUFFS", "PATCH_GAPS", "LIMBS",
+           "markdown_table", "CONTINUUM_ARMS", "INTERFACES", "CUFFS", "CUFF_STRAPS", "PATCH_GAPS",
+           "LIMBS",
            "TISSUE_TIMES",
            "LOG_SAMPLES"]
 
@@ -44,7 +45,11 @@ CONTINUUM_ARMS = ("coupled",)
 #: interface name -> interface.friction_coefficient (None: bonded)
 INTERFACES = {"bonded": None, "mu 0.5": 0.5, "mu 0": 0.0}
 #: cuff name -> cuff.stiffness (None: the preset's compliant cuff)
-CUFFS = {"compliant": None, "rigid": math.inf}
+CUFFS = {"compliant": None, "rigid": math.inf, "compliant, band": None}
+#: cuff name -> its strap where not the preset's hoop: an elastic band over the skin the
+#: shell leaves bare (docs/model.md section 3.1)
+CUFF_STRAPS = {"compliant, band": {"tension": 15.0, "model": "band", "width": 0.05,
+                                   "stiffness": 500.0}}
 #: limb name -> geometry keys replacing geometry.radius (None: the preset's circle): an
 #: elliptic section of the preset's perimeter (axis ratio 0.8, turned) on a tapered limb
 LIMBS = {"circle": None,
@@ -124,6 +129,8 @@ class Combination:
             raw["interface"]["friction_coefficient"] = mu
         if CUFFS[self.cuff] is not None:
             raw["cuff"]["stiffness"] = CUFFS[self.cuff]
+        if self.cuff in CUFF_STRAPS:
+            raw["strap"] = dict(CUFF_STRAPS[self.cuff])
         if self.continuum_law is not None:
             tissue["continuum"]["law"] = self.continuum_law
         if self.patch_gap is not None and PATCH_GAPS[self.patch_gap] is not None:
@@ -313,9 +320,15 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
     else:
         return None
     if conv.any():
-        # what the arm carries = the load on the cuff + the strap's preload wrench
+        # what the arm carries = the load on the cuff + the strap's wrench (an elastic
+        # band's at each sample's tension, docs/model.md section 3.1)
         W = cuff_wrench(cfg, composition_log()[:, 1:])
-        load = W[:, :3] + np.asarray(model_from_config(cfg, comb.arm).W_pre, float)[:3]
+        model = model_from_config(cfg, comb.arm)
+        strap = np.broadcast_to(np.asarray(model.W_pre, float), W.shape)
+        if "strap_tension_N" in df.columns:
+            extra = df["strap_tension_N"].to_numpy(float) - model.band_tension
+            strap = strap + extra[:, None] * model.band_h
+        load = W[:, :3] + strap[:, :3]
         gap = np.abs(f.sum(axis=1) - load).max(axis=1)[conv]
         if (gap > 1e-6 * (1.0 + np.abs(load[conv]).max())).any():
             return f"element forces out of balance with the load by {gap.max():.3g} N"
@@ -326,9 +339,9 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
             M = np.cross(pts[None], f).sum(axis=1)
             if all(c in df.columns for c in moment_cols):
                 M = M + df[moment_cols].to_numpy(float).reshape(len(df), len(labels), 3).sum(1)
-            pre = np.asarray(model_from_config(cfg, comb.arm).W_pre, float)[3:]
+            pre = strap[:, 3:]
             mgap = np.abs(M - W[:, 3:] - pre).max(axis=1)[conv]
-            if (mgap > 1e-6 * (0.1 + np.abs(W[conv, 3:] + pre).max())).any():
+            if (mgap > 1e-6 * (0.1 + np.abs(W[conv, 3:] + pre[conv]).max())).any():
                 return f"element moments out of balance with the load by {mgap.max():.3g} N*m"
     return None
 

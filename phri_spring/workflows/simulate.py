@@ -39,6 +39,7 @@ from ..physics.contact.solver import FactorCache, solve
 from .common import cuff_wrench, history_model, model_from_config
 from ..io.memory.budget import plan_stream
 from .plots.maxpool import MaxPool
+from .columns.band import BAND_COLUMN_TYPES, band_extras, has_band, largest_tension
 from .columns.no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, NoAnswerTally, no_equilibrium_extras
 from .columns.shear import element_loads, has_patch_moments, shear_columns, shear_extras
 from .columns.tolerance import (TOLERANCE_COLUMN_TYPES, ExposureTally, exposure_table_path,
@@ -307,6 +308,7 @@ class _Chunk:
                 extras.update(shear_extras(self.model, sol))
             if self.wrench is not None and self.model.friction_coefficient is not None:
                 extras.update(no_equilibrium_extras(self.model, self.wrench, sol))
+            extras.update(band_extras(self.model, sol))
             self._extras = extras, idx
         return self._extras
 
@@ -358,6 +360,8 @@ class SimulateSummary:
     #: the per-element table written (docs/tolerance.md); None without
     exposure: Optional[object] = None
     exposure_table: Optional[Path] = None
+    #: with strap.model: band, the largest band tension of the run [N]; None otherwise
+    max_strap_tension_n: Optional[float] = None
 
 
 @dataclass(frozen=True)
@@ -572,6 +576,7 @@ class SummaryAccumulator:
         self.samples = self.not_converged = self.it_max = self.it_sum = 0
         self._peaks = {}  # chunk number -> (peak [kPa], element, pain ratio, time [s])
         self._shares = ChunkedShares()  # what carries the load (docs/model.md section 12.4)
+        self.strap_max = None           # the band strap's largest tension [N] (band only)
 
     def add_load_path(self, number: int, model, sol) -> None:
         """Add chunk ``number``'s force passed to the skin by kind (normal, tangential,
@@ -583,6 +588,9 @@ class SummaryAccumulator:
         self.not_converged += int((~sol.converged).sum())
         self.it_max = max(self.it_max, int(sol.iterations.max()))
         self.it_sum += int(sol.iterations.sum())
+        if hasattr(sol, "strap_tension"):   # an elastic band strap
+            self.strap_max = float(np.fmax(np.nan if self.strap_max is None else self.strap_max,
+                                           largest_tension(sol)))
 
     def add_peak(self, number: int, time, extras: dict, peak_index) -> None:
         pp = extras["peak_pressure_kPa"]
@@ -603,7 +611,8 @@ class SummaryAccumulator:
                                max_peak_time=best[3], max_iterations_used=self.it_max,
                                mean_iterations=self.it_sum / max(self.samples, 1),
                                baseline_forces=baseline_forces, labels=self.labels,
-                               load_shares=self._shares.shares())
+                               load_shares=self._shares.shares(),
+                               max_strap_tension_n=self.strap_max)
 
 
 def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
@@ -630,7 +639,7 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     with run.writer(model.labels, _extra_arrow_types(model.labels if shear else (),
                                                      has_patch_moments(model),
                                                      model.friction_coefficient is not None,
-                                                     dose is not None),
+                                                     dose is not None, has_band(model)),
                     decimals=decimals) as writer:
         for number, (ch, W) in enumerate(chunks):
             if ch.activation is not None and number == 0:   # the log has muscle activation
@@ -650,7 +659,7 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
 
 
 def _extra_arrow_types(shear_labels=(), moments: bool = False, friction: bool = False,
-                       tolerance: bool = False) -> dict:
+                       tolerance: bool = False, band: bool = False) -> dict:
     import pyarrow as pa
 
     types = {"int64": pa.int64(), "float64": pa.float64(), "bool": pa.bool_(),
@@ -661,4 +670,6 @@ def _extra_arrow_types(shear_labels=(), moments: bool = False, friction: bool = 
         out.update({name: types[kind] for name, kind in NO_EQUILIBRIUM_COLUMN_TYPES})
     if tolerance:  # the dose against a tolerance curve (docs/tolerance.md)
         out.update({name: types[kind] for name, kind in TOLERANCE_COLUMN_TYPES})
+    if band:       # the elastic band strap's tension (docs/model.md section 3.1)
+        out.update({name: types[kind] for name, kind in BAND_COLUMN_TYPES})
     return out

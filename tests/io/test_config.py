@@ -314,7 +314,7 @@ def test_improper_rotation_is_an_error(tmp_path):
     (lambda d: d["load_cell"].update(force_unit="kN"), "load_cell.force_unit"),
     (lambda d: d["load_cell"].update(moment_unit="Nm"), "load_cell.moment_unit"),
     (lambda d: d["tissue"].update(basis="indentor"), "tissue.basis"),
-    (lambda d: d["strap"].update(model="band"), "strap.model"),
+    (lambda d: d["strap"].update(model="belt"), "strap.model"),
 ])
 def test_bad_enum(tmp_path, mutate, key):
     d = harmony_dict()

@@ -177,7 +177,10 @@ class _Interface(_Strict):
 
 class _Strap(_Strict):
     tension: float = Field(default=15.0, ge=0, json_schema_extra=_unit("N"))
-    model: Literal["hoop", "handles"] = "hoop"
+    model: Literal["hoop", "handles", "band"] = "hoop"
+    #: ``band`` only: the elastic band's axial width and tension per unit strain
+    width: Optional[float] = Field(default=None, gt=0, json_schema_extra=_unit("m"))
+    stiffness: Optional[float] = Field(default=None, ge=0, json_schema_extra=_unit("N"))
     handle_angles: Optional[tuple[float, float]] = Field(default=None,
                                                          json_schema_extra=_unit("deg"))
     axial_position: Optional[float] = Field(default=None, json_schema_extra=_unit("m"))
@@ -287,6 +290,8 @@ class Config:
     strap_model: str = "hoop"
     handle_angles_deg: Optional[tuple] = None
     strap_axial_position: Optional[float] = None
+    strap_width: Optional[float] = None          # [m] strap.width (band)
+    strap_stiffness: Optional[float] = None      # [N] strap.stiffness (band)
     max_iterations: int = 100
     continuum_thickness: Optional[float] = None        # [m] tissue.continuum.thickness
     continuum_young_modulus: Optional[float] = None    # [Pa] tissue.continuum.young_modulus
@@ -447,8 +452,20 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                        ("strap.handle_angles", st.handle_angles)):
         if value is not None:
             check_plausible(value, key, path)
+    for key, value, what in (("strap.stiffness", st.stiffness, "tension per unit strain [N]"),
+                             ("strap.width", st.width, "axial width [m]")):
+        if st.model == "band" and (value is None or not math.isfinite(value)):
+            raise ConfigError(f"the band strap needs its finite {what}, got {value!r}",
+                              file=path, key=key)
+        if st.model != "band" and value is not None:
+            raise ConfigError(f"expected {key} only with strap.model: band (the {st.model} strap "
+                              "is not elastic)", file=path, key=key)
 
     scan = None
+    if g.scan is not None and st.model == "band":
+        raise ConfigError("the band strap is not available on a scanned limb yet (the band's "
+                          "path over the scan is not defined); use hoop or handles",
+                          file=path, key="geometry.scan")
     if g.scan is not None:
         if free:
             raise ConfigError("sensor patches on a scanned limb are not available yet (a patch "
@@ -495,7 +512,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         shear_ratio=root.interface.shear_ratio, strap_tension=float(st.tension),
         strap_model=st.model,
         handle_angles_deg=None if st.handle_angles is None else tuple(st.handle_angles),
-        strap_axial_position=st.axial_position, max_iterations=int(root.solver.max_iterations),
+        strap_axial_position=st.axial_position, strap_width=st.width,
+        strap_stiffness=st.stiffness, max_iterations=int(root.solver.max_iterations),
         raw=original, stiffness_files=stiffness_files + ((surface,) if surface else ())
         + tuple(_csv_path(v, base) for v in law_values.values() if isinstance(v, str))
         + ((scan.file,) if scan is not None else ()),

@@ -278,6 +278,8 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
         return sol if not single else Solution(
             u=sol.u[0], forces=sol.forces[0], iterations=sol.iterations[0],
             converged=sol.converged[0], contact=sol.contact[0], tangential=sol.tangential[0])
+    if hasattr(model, "solve_band"):   # an elastic band strap (contact/band_solve.py)
+        return model.solve_band(W[0] if single else W, max_iterations=max_iterations, cache=cache)
     if interface_mu(model) is not None:
         return _solve_friction(model, W, single, cache)
     if hasattr(model, "solve_wrenches"):

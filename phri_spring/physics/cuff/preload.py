@@ -9,7 +9,8 @@ import numpy as np
 from ...errors import ModelInputError
 from .geometry import tangent
 
-__all__ = ["hoop_preload", "handles_preload", "handles_preload_on", "strap_preload"]
+__all__ = ["hoop_preload", "handles_preload", "handles_preload_on", "handle_edges",
+           "strap_preload"]
 
 
 def hoop_preload(tension: float, span, row_width, n_rows_widths) -> np.ndarray:
@@ -72,6 +73,28 @@ def handles_preload_on(strap_section, tension: float, theta_a: float, theta_b: f
     return float(tension) * np.concatenate([t_b - t_a, np.cross(p_b, t_b) - np.cross(p_a, t_a)])
 
 
+def handle_edges(geometry, handle_angles_deg=None, handle_axial_position=None):
+    """Where the ``handles`` strap pulls and the ``band`` strap's ends sit: the angles
+    theta_a, theta_b [rad] and the axial position [m]; by default the cuff's edges (start -
+    width/2 and the last location + width/2; a free layout's extreme patch edges) and the
+    mean row position."""
+    if handle_angles_deg is None and geometry.free_layout:
+        # a free layout's edges: its extreme patch edges in angle (a cuff opening
+        # that does not wrap past 180 deg from its middle)
+        mid = math.atan2(np.sin(geometry.theta).mean(), np.cos(geometry.theta).mean())
+        rel = (geometry.theta - mid + math.pi) % (2 * math.pi) - math.pi
+        handle_angles_deg = (math.degrees(mid + np.min(rel - geometry.span / 2)),
+                             math.degrees(mid + np.max(rel + geometry.span / 2)))
+    if handle_angles_deg is None:
+        th = np.degrees(geometry.theta[: geometry.n_angles])
+        half = np.degrees(geometry.span[0]) / 2.0
+        handle_angles_deg = (th[0] - half, th[-1] + half)
+    xs = geometry.x if geometry.free_layout else geometry.x[:: geometry.n_angles]
+    ax = float(np.mean(xs)) if handle_axial_position is None else float(handle_axial_position)
+    ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
+    return float(ta), float(tb), ax
+
+
 def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_deg=None,
                   handle_axial_position=None):
     """The strap's preload on a cuff geometry, for every arm model (docs/model.md section 3).
@@ -81,9 +104,9 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
     f0 : ndarray, shape (n,)
         ``hoop``: initial normal force of every element [N]; ``handles``: zeros.
     W_handles : ndarray, shape (6,), or None
-        ``handles``: the strap's wrench on the cuff [N, N*m] (handles at the cuff's
-        edges and the mean row position unless given); ``hoop``: None (the wrench
-        follows from f0 and the arm model).
+        ``handles`` (and ``band``, at its preload tension): the strap's wrench on the
+        cuff [N, N*m] (at :func:`handle_edges`); ``hoop``: None (the wrench follows
+        from f0 and the arm model).
     """
     if model == "hoop" and geometry.hoop_share is not None:
         turning = np.maximum(geometry.turning, 0.0)
@@ -94,22 +117,8 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
         # a band cannot pull skin outward: across a concave stretch (psi_e < 0) it bridges
         # the hollow and presses nothing, so that u = 0 stays the unloaded equilibrium
         return hoop_preload(tension, np.maximum(turning, 0.0), geometry.row_width, row_w), None
-    if model == "handles":
-        if handle_angles_deg is None and geometry.free_layout:
-            # a free layout's edges: its extreme patch edges in angle (a cuff opening
-            # that does not wrap past 180 deg from its middle)
-            mid = math.atan2(np.sin(geometry.theta).mean(), np.cos(geometry.theta).mean())
-            rel = (geometry.theta - mid + math.pi) % (2 * math.pi) - math.pi
-            handle_angles_deg = (math.degrees(mid + np.min(rel - geometry.span / 2)),
-                                 math.degrees(mid + np.max(rel + geometry.span / 2)))
-        if handle_angles_deg is None:
-            th = np.degrees(geometry.theta[: geometry.n_angles])
-            half = np.degrees(geometry.span[0]) / 2.0
-            handle_angles_deg = (th[0] - half, th[-1] + half)
-        xs = geometry.x if geometry.free_layout else geometry.x[:: geometry.n_angles]
-        ax = float(np.mean(xs)) if handle_axial_position is None \
-            else float(handle_axial_position)
-        ta, tb = np.radians(np.asarray(handle_angles_deg, dtype=float))
+    if model in ("handles", "band"):   # band: the handles' wrench at the preload tension
+        ta, tb, ax = handle_edges(geometry, handle_angles_deg, handle_axial_position)
         if geometry.strap_section is not None:
             return np.zeros(geometry.n), handles_preload_on(geometry.strap_section, tension,
                                                             ta, tb, ax)
@@ -119,4 +128,4 @@ def strap_preload(geometry, tension: float, model: str = "hoop", handle_angles_d
                                   "strap_model")
         return np.zeros(geometry.n), handles_preload(tension, ta, tb, ax,
                                                      geometry.handles_radius)
-    raise ValueError(f"strap model: expected 'hoop' or 'handles', got {model!r}")
+    raise ValueError(f"strap model: expected 'hoop', 'handles' or 'band', got {model!r}")

@@ -82,7 +82,7 @@ class SpringModel(OnGeometry):
     W_pre : ndarray, shape (6,)
         Constant wrench of the strap on the cuff [N, N*m].
     strap_model : str
-        ``hoop`` or ``handles``.
+        ``hoop``, ``handles`` or ``band``.
     pain_threshold_kpa : float
         Pressure pain threshold [kPa].
     bT : ndarray, shape (6, n)
@@ -266,7 +266,10 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
         Tissue Poisson ratio nu [-].
     strap_tension : float
         T [N].
-    strap_model : {'hoop', 'handles'}
+    strap_model : {'hoop', 'handles', 'band'}
+        ``band``: the handles' wrench at ``strap_tension`` (the band's tension at zero
+        wrench); :func:`~phri_spring.physics.contact.band_solve.band_model` adds its
+        elasticity.
     handle_angles_deg : (float, float), optional
         Handle angles [deg] (``handles`` only); default the cuff's edges.
     handle_axial_position : float, optional
