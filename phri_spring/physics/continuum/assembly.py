@@ -79,11 +79,16 @@ def _facet_arrays(tm, ib, facets, intorder=5):
     dx : ndarray, shape (nf, nq)
     X : ndarray, shape (3, nf, nq)
     edofs : ndarray, shape (nb, nf)
+    inward : ndarray, shape (3, nf, nq)
+        The skin's inward unit normal at the points X: toward the axis on a circular
+        cylinder, else the normal of the limb's skin on the ray through X (shape.py).
     """
     sk = import_skfem()
     fb = sk["FacetBasis"](tm.mesh, ib.elem, facets=facets, intorder=intorder)
     phi = np.stack([np.array(fb.basis[i][0]) for i in range(len(fb.basis))])
-    return phi, np.asarray(fb.dx), np.array(fb.global_coordinates()), fb.element_dofs
+    X = np.array(fb.global_coordinates())
+    inward = _inward_normal(X) if tm.shape is None else tm.shape.inward_normal(X)
+    return phi, np.asarray(fb.dx), X, fb.element_dofs, inward
 
 
 def _surface_forms(tm, geometry, ib, rigid=True):
@@ -99,7 +104,7 @@ def _surface_forms(tm, geometry, ib, rigid=True):
     C : ndarray, shape (N, n)
         int_patch e phi_i . n(x) dA with the local inward normal n(x) [m^2].
     """
-    phi, dx, X, edofs = _facet_arrays(tm, ib, tm.cuff_facets)
+    phi, dx, X, edofs, nrm = _facet_arrays(tm, ib, tm.cuff_facets)
     nb, nf = phi.shape[0], phi.shape[2]
     Mloc = np.einsum("iafq,jafq,fq->fij", phi, phi, dx)
     d = edofs.T
@@ -112,7 +117,6 @@ def _surface_forms(tm, geometry, ib, rigid=True):
     for ep, fs in enumerate(tm.patch_facets):
         owner[[pos[f] for f in fs]] = ep
     n = geometry.n
-    nrm = _inward_normal(X)                                              # (3, nf, nq)
     Cloc = np.einsum("iafq,afq,fq->fi", phi, nrm, dx)
     C = np.zeros((ib.N, n))
     np.add.at(C, (d.ravel(), np.repeat(owner, nb)), Cloc.ravel())
@@ -225,7 +229,7 @@ class TissueFE:
 
 def assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends, *,
                        patch_modes: bool = True,
-                       patch_gap: float = DEFAULT_PATCH_GAP) -> TissueFE:
+                       patch_gap: float = DEFAULT_PATCH_GAP, bone=None) -> TissueFE:
     """Mesh, assemble (E = 1 Pa) and tie the seam of the tissue under a cuff.
 
     Parameters
@@ -247,12 +251,16 @@ def assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor,
     patch_gap : float, optional
         Free skin between neighbouring patches' plates [m]
         (:func:`~phri_spring.physics.continuum.mesh.patch_plates`).
+    bone : sequence (y_c, z_c, r_b) [m], optional
+        A circular bone; None: the skin moved inward by the thickness
+        (:mod:`~phri_spring.physics.continuum.shape`, which also maps the mesh onto a
+        non-circular or tapered limb).
 
     Returns
     -------
     TissueFE
     """
-    tm = build_mesh(geometry, thickness, level, length_factor, patch_gap)
+    tm = build_mesh(geometry, thickness, level, length_factor, patch_gap, bone)
     ib, Kfull = assemble(tm, poisson_ratio, ends)
     M, B, C = _surface_forms(tm, geometry, ib, rigid=patch_modes)
     g, n_red = periodic_map(tm.comp, tm.thickness)
