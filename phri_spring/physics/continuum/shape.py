@@ -13,7 +13,8 @@ gives today's nodes to round-off.
   and beyond the outer rows (or off the row of a one-row cuff) it follows the taper,
   d rho / dx = -tan(alpha), the cone of ``geometry.taper_deg``;
 - the bone: a circle of centre (y, z) and radius r_b (``geometry.bone``), reached on
-  the ray from its centre at theta; by default the skin moved inward by t on every ray.
+  the ray from its centre at theta; by default the rows' skin moved inward by t on every
+  ray (beyond the outer rows, the outer row's: the bone does not follow the taper).
 
 Pure numpy; errors are ``ValueError`` with a one-line message.
 """
@@ -25,11 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["LayerShape", "layer_shape", "reference_radius", "BONE_MARGIN"]
+__all__ = ["LayerShape", "layer_shape", "check_layer", "reference_radius", "BONE_MARGIN_M"]
 
-#: the least tissue left between the bone and the skin, as a share of the thickness
-#: t: a bone that comes closer would squash the elements of that radial line flat
-BONE_MARGIN = 0.25
+#: the least tissue left between the bone and the skin [m] (and between the default
+#: bone and the axis): a bone that comes closer squashes the elements of that radial
+#: line flat
+BONE_MARGIN_M = 0.002
 
 
 def reference_radius(geometry) -> float:
@@ -104,13 +106,20 @@ class LayerShape:
                        -self.taper_tan)
         return rho, d_t, d_x
 
+    def default_bone_rho(self, theta, x) -> np.ndarray:
+        """Distance of the default bone from the axis [m]: the skin moved inward by t on
+        every ray, the rows' outlines interpolated between them and, beyond the outer rows,
+        the outer row's (a bone does not taper with the skin's fat and muscle)."""
+        x = np.asarray(x, float)
+        return self.skin_rho(theta, np.clip(x, self.row_x[0], self.row_x[-1])) - self.thickness
+
     def map_nodes(self, x, theta, r, R, t) -> np.ndarray:
         """Cartesian nodes (3, N) of the parametric nodes (x, theta, r), r in [R - t, R]."""
         s = (r - (R - t)) / t
         c, sn = np.cos(theta), np.sin(theta)
         rho = self.skin_rho(theta, x)
         if self.bone is None:
-            rb = rho - self.thickness
+            rb = self.default_bone_rho(theta, x)
             return np.vstack([x, (rb + s * (rho - rb)) * c, (rb + s * (rho - rb)) * sn])
         yc, zc, rr = self.bone
         by, bz = yc + rr * c, zc + rr * sn
@@ -130,26 +139,27 @@ class LayerShape:
         return -g / np.linalg.norm(g, axis=0)
 
     def check(self, theta, x) -> None:
-        """ValueError unless the bone lies inside the skin with :data:`BONE_MARGIN` t of
-        tissue on every ray of ``theta`` at every ``x`` (the mesh's lines)."""
+        """ValueError unless the bone lies inside the skin with :data:`BONE_MARGIN_M` of
+        tissue on every ray of ``theta`` at every ``x`` (the mesh's lines; the taper
+        narrows the skin beyond the rows)."""
         T, X = np.meshgrid(np.asarray(theta, float), np.asarray(x, float))
         rho = self.skin_rho(T, X)
-        t = self.thickness
+        t, m = self.thickness, BONE_MARGIN_M
         if self.bone is None:
-            if np.min(rho) <= t * (1 + BONE_MARGIN):
-                raise ValueError(f"the skin comes within {np.min(rho) * 1e3:.4g} mm of the arm "
-                                 f"axis, too close for a tissue layer {t * 1e3:g} mm thick; "
-                                 "expected a thinner layer or a wider limb")
+            rb = self.default_bone_rho(T, X)
+            if np.min(rb) < m or np.min(rho - rb) < m:
+                raise ValueError(f"a layer {t * 1e3:g} mm thick leaves "
+                                 f"{min(np.min(rb), np.min(rho - rb)) * 1e3:.3g} mm of bone or "
+                                 f"of tissue over the modelled tissue (the taper narrows the "
+                                 f"skin beyond the rows); expected at least {m * 1e3:g} mm: a "
+                                 "thinner layer (or a geometry.bone)")
             return
         yc, zc, rr = self.bone
-        # distance from the bone's centre to the skin along the ray at each skin point,
-        # against the bone's radius: the outline is star-shaped about the axis, so test
-        # the skin points themselves
         d = np.hypot(rho * np.cos(T) - yc, rho * np.sin(T) - zc)
-        if np.min(d) - rr < BONE_MARGIN * t:
-            raise ValueError(f"expected the bone inside the skin with at least "
-                             f"{BONE_MARGIN * t * 1e3:.3g} mm of tissue ({BONE_MARGIN:g} x the "
-                             f"thickness) everywhere, got {(np.min(d) - rr) * 1e3:.3g} mm")
+        if np.min(d) - rr < m:
+            raise ValueError(f"expected the bone inside the skin with at least {m * 1e3:g} mm "
+                             f"of tissue over the modelled tissue (the taper narrows the skin "
+                             f"beyond the rows), got {(np.min(d) - rr) * 1e3:.3g} mm")
 
     def fingerprint(self) -> bytes:
         """Bytes that change with the shape (the skin on 64 rays at every row, the taper,
@@ -193,3 +203,18 @@ def layer_shape(geometry, thickness, bone=None) -> LayerShape | None:
     b = None if bone is None else tuple(float(v) for v in bone)
     return LayerShape(row_x=xs, sections=secs, taper_tan=tan_a, thickness=float(thickness),
                       bone=b)
+
+
+def check_layer(geometry, thickness, bone=None, length_factor=6.0) -> None:
+    """ValueError (one line) unless the layer under ``geometry`` can be meshed: the bone
+    inside the skin with :data:`BONE_MARGIN_M` of tissue over the modelled length (the
+    rows' extent and ``length_factor`` thicknesses beyond each edge), on 720 rays."""
+    shape = layer_shape(geometry, thickness, bone)
+    if shape is None:
+        return
+    x = np.asarray(geometry.x, float)
+    w = np.asarray(geometry.row_width, float)
+    ext = float(length_factor) * float(thickness)
+    lo, hi = float(np.min(x - w / 2)) - ext, float(np.max(x + w / 2)) + ext
+    xs = np.unique(np.concatenate([[lo, hi], shape.row_x]))
+    shape.check(2.0 * math.pi * np.arange(720) / 720, xs)
