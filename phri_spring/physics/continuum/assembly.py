@@ -79,16 +79,11 @@ def _facet_arrays(tm, ib, facets, intorder=5):
     dx : ndarray, shape (nf, nq)
     X : ndarray, shape (3, nf, nq)
     edofs : ndarray, shape (nb, nf)
-    inward : ndarray, shape (3, nf, nq)
-        The skin's inward unit normal at the points X: toward the axis on a circular
-        cylinder, else the normal of the limb's skin on the ray through X (shape.py).
     """
     sk = import_skfem()
     fb = sk["FacetBasis"](tm.mesh, ib.elem, facets=facets, intorder=intorder)
     phi = np.stack([np.array(fb.basis[i][0]) for i in range(len(fb.basis))])
-    X = np.array(fb.global_coordinates())
-    inward = _inward_normal(X) if tm.shape is None else tm.shape.inward_normal(X)
-    return phi, np.asarray(fb.dx), X, fb.element_dofs, inward
+    return phi, np.asarray(fb.dx), np.array(fb.global_coordinates()), fb.element_dofs
 
 
 def _surface_forms(tm, geometry, ib, rigid=True):
@@ -104,7 +99,7 @@ def _surface_forms(tm, geometry, ib, rigid=True):
     C : ndarray, shape (N, n)
         int_patch e phi_i . n(x) dA with the local inward normal n(x) [m^2].
     """
-    phi, dx, X, edofs, nrm = _facet_arrays(tm, ib, tm.cuff_facets)
+    phi, dx, X, edofs = _facet_arrays(tm, ib, tm.cuff_facets)
     nb, nf = phi.shape[0], phi.shape[2]
     Mloc = np.einsum("iafq,jafq,fq->fij", phi, phi, dx)
     d = edofs.T
@@ -117,6 +112,9 @@ def _surface_forms(tm, geometry, ib, rigid=True):
     for ep, fs in enumerate(tm.patch_facets):
         owner[[pos[f] for f in fs]] = ep
     n = geometry.n
+    # the skin's inward unit normal: toward the axis on a circular cylinder, else the
+    # normal of the limb's skin on the ray through each point (shape.py)
+    nrm = _inward_normal(X) if tm.shape is None else tm.shape.inward_normal(X)
     Cloc = np.einsum("iafq,afq,fq->fi", phi, nrm, dx)
     C = np.zeros((ib.N, n))
     np.add.at(C, (d.ravel(), np.repeat(owner, nb)), Cloc.ravel())

@@ -127,3 +127,15 @@ def test_a_bone_of_its_own_in_the_fe():
                                EllipseSection(R, 0.8 * R).rho(th[s]), rtol=1e-12)
     K = fe.condensed_surface_operators(g, T, 3e4, NU, level=1, bone=bone).K
     assert np.linalg.eigvalsh(K).min() > 0
+
+
+def test_rows_of_different_radii_mesh_between_them():
+    """Two rows of radii 45 and 46 mm: the skin nodes between the rows lie on the straight
+    line between the two circles (linear in x, closed form), beyond them on each row's."""
+    xr, Rr = np.array([-0.025, 0.0]), np.array([0.045, 0.046])
+    g = cuff_geometry(xr, Rr, 0.025, 75.0, 35.0, 3)
+    tm = build_mesh(g, T, 1, 6.0)
+    x, _, r = tm.comp
+    skin = np.abs(r - r.max()) <= 1e-12
+    rho = np.hypot(*tm.mesh.doflocs[1:, skin])
+    np.testing.assert_allclose(rho, np.interp(x[skin], xr, Rr), rtol=1e-12)
