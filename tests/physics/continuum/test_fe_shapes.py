@@ -139,3 +139,19 @@ def test_rows_of_different_radii_mesh_between_them():
     skin = np.abs(r - r.max()) <= 1e-12
     rho = np.hypot(*tm.mesh.doflocs[1:, skin])
     np.testing.assert_allclose(rho, np.interp(x[skin], xr, Rr), rtol=1e-12)
+
+
+def test_a_cached_circle_is_not_read_for_an_ellipse(tmp_path):
+    """The disk cache: the circle's entry is written, read back for the circle, and not
+    read for the ellipse with the same patch points (built anew, another file)."""
+    from phri_spring.io.cache.surface_stiffness import load_or_build_operators
+
+    kw = dict(row_x=[0.0], row_width=0.03, angle_start_deg=0.0, angle_step_deg=180.0,
+              angle_count=2, angle_width_deg=30.0)
+    circle = cuff_geometry(radius=R, **kw)
+    ellipse = section_geometry(sections=EllipseSection(R, 0.8 * R), **kw)
+    run = lambda g: load_or_build_operators(g, T, 3e4, NU, cache_dir=tmp_path,  # noqa: E731
+                                            level=1).info
+    first, again, other = run(circle), run(circle), run(ellipse)
+    assert (first["source"], again["source"], other["source"]) == ("built", "cache", "built")
+    assert other["path"] != first["path"]
