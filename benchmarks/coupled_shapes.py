@@ -2,7 +2,7 @@
 
 Writes ``benchmarks/COUPLED_SHAPES.md``. Run from the repository root::
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/coupled_shapes.py              # levels 1..5
+    OPENBLAS_NUM_THREADS=1 python benchmarks/coupled_shapes.py              # levels 1..4
     OPENBLAS_NUM_THREADS=1 python benchmarks/coupled_shapes.py --levels 2   # smoke run
 
 Cuff: one row of five patches (110 to 250 deg, 35 deg apart, 25 mm wide, the default
@@ -68,7 +68,7 @@ def change_pct(a, b):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--levels", type=int, default=5, help="finest mesh level (default 5)")
+    ap.add_argument("--levels", type=int, default=4, help="finest mesh level (default 4)")
     ap.add_argument("--out", default=str(ROOT / "benchmarks" / "COUPLED_SHAPES.md"))
     args = ap.parse_args(argv)
     levels = list(range(1, args.levels + 1))
