@@ -240,30 +240,48 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
 
 def _check_coupled_shape(cfg: Config) -> None:
     """Refuse a limb the coupled arm cannot model (docs/model.md section 13): the built-in
-    FE meshes a circular cylindrical layer, and the hyperelastic laws are identified on
-    it; the user's own FE export (tissue.continuum.surface_stiffness) may be of any shape."""
+    FE meshes the layer between the bone and the skin of a circular, elliptic, outlined or
+    tapered limb (physics/continuum/shape.py), not a scan, and the hyperelastic laws are
+    identified on a circular cylinder only; the user's own FE export
+    (tissue.continuum.surface_stiffness) may be of any shape."""
     if cfg.patches is not None:
         raise ConfigError("the coupled arm's FE meshes its patches as rows x angles of one "
                           "cylindrical layer; a free layout is not available there yet (use "
                           "--arm compliant or rigid)", file=cfg.path, key="cuff.patches")
-    if cfg.is_circular_cylinder:
+    own_fe = cfg.continuum_surface_stiffness is not None
+    if cfg.bone is not None and own_fe:
+        raise ConfigError("geometry.bone shapes the built-in FE's layer; your own FE's "
+                          "tissue.continuum.surface_stiffness already holds its bone (remove "
+                          "one)", file=cfg.path, key="geometry.bone")
+    if cfg.is_circular_cylinder and cfg.bone is None:
         return
     if cfg.scan is not None:
         key, what = "geometry.scan", "a scanned limb"
+    elif cfg.bone is not None and cfg.is_circular_cylinder:
+        key, what = "geometry.bone", "a bone of its own"
     elif cfg.sections is not None:
         key, what = "geometry.section", "a non-circular section"
     else:
         key, what = "geometry.taper_deg", "a taper"
     if cfg.continuum_law in ("neo_hookean", "ogden"):
         raise ConfigError(f"the coupled arm's {cfg.continuum_law} law is identified on the "
-                          f"built-in FE, which meshes a circular cylindrical layer: {what} is "
-                          "not available there yet (use --arm compliant or rigid)",
+                          f"built-in FE's circular cylindrical layer: {what} is not available "
+                          "there yet (use the linear law, or --arm compliant or rigid)",
                           file=cfg.path, key=key)
-    if cfg.continuum_surface_stiffness is None:
-        raise ConfigError(f"the coupled arm's built-in FE meshes a circular cylindrical layer: "
-                          f"{what} is not available there yet; give your own FE's "
-                          "tissue.continuum.surface_stiffness for this limb, or use --arm "
-                          "compliant or rigid", file=cfg.path, key=key)
+    if cfg.scan is not None and not own_fe:
+        raise ConfigError("the coupled arm's built-in FE meshes sections and tapers, not a "
+                          "scanned limb; give your own FE's tissue.continuum.surface_stiffness "
+                          "for this limb, or use --arm compliant or rigid", file=cfg.path,
+                          key=key)
+    if not own_fe and cfg.continuum_thickness is not None:
+        from ..physics.continuum.shape import check_layer
+
+        try:
+            check_layer(cfg.geometry(), cfg.continuum_thickness, cfg.bone)
+        except ValueError as exc:
+            raise ConfigError(str(exc), file=cfg.path,
+                              key="geometry.bone" if cfg.bone is not None
+                              else "tissue.continuum.thickness") from None
 
 
 def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
@@ -281,8 +299,8 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
                           file=cfg.path, key=key)
     _check_coupled_shape(cfg)
     geom = geometry_from_config(cfg)
-    # a limb of any shape comes with the user's own FE (checked above): its thinnest
-    # point bounds the layer
+    # a limb of any shape: its thinnest point bounds the layer (the built-in FE's layer
+    # is checked ray by ray above)
     radius = np.unique(geom.radius) if cfg.is_circular_cylinder else np.min(geom.radius)[None]
     if len(radius) != 1:
         raise ConfigError("the coupled model needs one cuff radius for every row (a cylindrical "
@@ -320,7 +338,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
         at_level = {} if level is None else {"level": int(level)}
         K, info = load_or_build(geom, t, float(np.mean(E)), cfg.poisson_ratio,
                                 cache_dir=cache_dir, patch_gap=cfg.continuum_patch_gap,
-                                **at_level)
+                                bone=cfg.bone, **at_level)
         N = info.get("N")
     if cfg.continuum_spread == "per_patch":
         if E is None:

@@ -293,6 +293,12 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
                                   and comb.continuum_law in (None, "linear"))
     if releases and conv.any():
         lifted = N[conv] <= _TOL_N
+        if all(c in df.columns for c in force_cols):
+            # a coupled patch's label column is its traction integral, which a patch in
+            # contact under a strong moment can bring to 0 (a curved skin turns the tractions
+            # off n_e): a patch is lifted when its force along n_e is 0 too
+            f = df[force_cols].to_numpy(float).reshape(len(df), len(labels), 3)[conv]
+            lifted &= np.einsum("mei,ei->me", f, cfg.geometry().normals) <= _TOL_N
         carried = np.hypot(ax, ci)[conv]
         moment_cols = [c for c in df.columns if "_moment_" in c and c.endswith("_Nm")]
         if moment_cols:

@@ -59,13 +59,15 @@ def patch_gap_value(patch_gap) -> float:
 
 def cache_key(geometry, thickness, poisson_ratio, *, level=fe_tissue.DEFAULT_LEVEL,
               length_factor=fe_tissue.DEFAULT_LENGTH_FACTOR, ends="fixed",
-              patch_gap=None) -> str:
+              patch_gap=None, bone=None) -> str:
     """SHA-256 (hex) of everything the E = 1 matrices depend on.
 
     Geometry arrays (labels, x, radius, row width, theta, span, points), thickness,
     Poisson ratio, mesh level, modelled length, end condition, patch gap (None: the
-    default, ``fe_tissue.DEFAULT_PATCH_GAP``) and the format version. Young's modulus is
-    not part of it (K is linear in E).
+    default, ``fe_tissue.DEFAULT_PATCH_GAP``) and the format version; on a limb that is
+    not a circular cylinder, or with a ``bone``, the layer's shape too (its skin on 64 rays
+    per row, the taper, the bone: two limbs with the same patch points but different
+    outlines do not share an entry). Young's modulus is not part of it (K is linear in E).
     """
     h = hashlib.sha256()
     h.update(f"phri-spring surface stiffness v{CACHE_FORMAT_VERSION}\n".encode())
@@ -78,6 +80,9 @@ def cache_key(geometry, thickness, poisson_ratio, *, level=fe_tissue.DEFAULT_LEV
     for value in (thickness, poisson_ratio, length_factor, patch_gap_value(patch_gap)):
         h.update(np.float64(value).tobytes())
     h.update(f"level={int(level)};ends={ends}".encode())
+    shape = fe_tissue.layer_shape(geometry, float(thickness), bone)
+    if shape is not None:       # a circular cylinder's key is as before
+        h.update(shape.fingerprint())
     return h.hexdigest()
 
 
@@ -119,7 +124,8 @@ def write_cache_entry(path: Path, key: str, arrays: dict, info: dict) -> str | N
 def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *,
                             cache_dir=None, level: int = fe_tissue.DEFAULT_LEVEL,
                             length_factor: float = fe_tissue.DEFAULT_LENGTH_FACTOR,
-                            ends: str = "fixed", patch_gap=None) -> fe_tissue.SurfaceOperators:
+                            ends: str = "fixed", patch_gap=None,
+                            bone=None) -> fe_tissue.SurfaceOperators:
     """The built-in FE's condensed surface stiffness and normal-force output, cached on disk.
 
     Parameters
@@ -138,6 +144,8 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
     patch_gap : float, optional
         Free skin between neighbouring patches [m] (``tissue.continuum.patch_gap``); None:
         ``fe_tissue.DEFAULT_PATCH_GAP``.
+    bone : sequence (y_c, z_c, r_b) [m], optional
+        A circular bone (``geometry.bone``); None: the skin moved inward by the thickness.
 
     Returns
     -------
@@ -161,14 +169,14 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
     t0 = time.perf_counter()
     fe_tissue.check_material(thickness=thickness, poisson_ratio=poisson_ratio,
                              young_modulus=young_modulus,
-                             radius=fe_tissue.single_radius(geometry))
+                             radius=fe_tissue.reference_radius(geometry))
     gap = patch_gap_value(patch_gap)
     problem = fe_tissue.patch_gap_problem(geometry, gap)
     if problem is not None:
         raise ConfigError(problem, key="tissue.continuum.patch_gap")
     n = geometry.n
     key = cache_key(geometry, thickness, poisson_ratio, level=level,
-                    length_factor=length_factor, ends=ends, patch_gap=gap)
+                    length_factor=length_factor, ends=ends, patch_gap=gap, bone=bone)
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     path = folder / f"surface-stiffness-{key[:32]}.npz"
     hit = read_cache_entry(path, key, {"K": (6 * n, 6 * n), "N": (n, 6 * n)})
@@ -180,7 +188,7 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
     else:
         ops = fe_tissue.condensed_surface_operators(geometry, thickness, 1.0, poisson_ratio,
                                                     level=level, length_factor=length_factor,
-                                                    ends=ends, patch_gap=gap)
+                                                    ends=ends, patch_gap=gap, bone=bone)
         K1, N1 = ops.K, ops.N
         info = dict(ops.info, source="built")
         info["cache_error"] = write_cache_entry(path, key, {"K": K1, "N": N1}, ops.info)

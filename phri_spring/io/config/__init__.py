@@ -26,6 +26,7 @@ from .schema_errors import config_error_from
 from ..logs.columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
 from .geometry import (check_scan_alone, geometry_sections, per_row_values, read_scan,
                               scan_geometry)
+from .geometry import parse_bone
 from .history import ACTIVATION_FACTOR, Relaxation
 from .tolerance import parse_tolerance
 from .values import check_plausible
@@ -74,6 +75,9 @@ class _Geometry(_Strict):
     #: a 3D surface scan of the limb (docs/scans.md): {file, unit, origin, axis, y_axis,
     #: max_triangles, smoothing}; checked by io.scan, exclusive of radius, section and taper
     scan: Optional[Any] = Field(default=None, json_schema_extra=_unit("the scan's unit"))
+    #: the coupled arm's bone, {centre: [y, z], radius} (docs/model.md section 13);
+    #: None: the skin moved inward by tissue.continuum.thickness. Checked by parse_bone
+    bone: Optional[Any] = Field(default=None, json_schema_extra=_unit("m"))
 
     @field_validator("rows")
     @classmethod
@@ -267,6 +271,8 @@ class Config:
     taper_deg: float = field(default=0.0, kw_only=True)
     #: geometry.scan, read (io.scan.ScanCuff): the elements' geometry on the scan; None without
     scan: Optional[Any] = field(default=None, kw_only=True, repr=False)
+    #: geometry.bone as (y_c, z_c, r_b) [m], None: the skin moved inward by the thickness
+    bone: Optional[tuple] = field(default=None, kw_only=True)
     #: cuff.patches (a physics.patches.PatchLayout), None: the rows x angles grid. With
     #: patches, row_labels is ("",) and angle_count the patch count (one "row"), and
     #: patch_row_x the positions where radius / sections are given
@@ -501,6 +507,7 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
         radius=radius, row_width=row_width, angle_start_deg=angles[0],
         angle_step_deg=angles[1], angle_count=int(angles[2]), angle_width_deg=angles[3],
         labels=labels, sections=sections, taper_deg=taper, patches=layout,
+        bone=None if g.scan is not None else parse_bone(g.bone, sections, radius, path),
         patch_row_x=patch_row_x, tissue_stiffness=k_t, tissue_basis=root.tissue.basis,
         scan=scan,
         indenter_diameter=float(root.tissue.indenter_diameter),

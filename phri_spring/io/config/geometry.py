@@ -10,7 +10,7 @@ import numpy as np
 
 from ...errors import ConfigError
 
-__all__ = ["geometry_sections", "per_row_values", "check_scan_alone", "read_scan",
+__all__ = ["parse_bone", "geometry_sections", "per_row_values", "check_scan_alone", "read_scan",
            "scan_geometry", "config_outlines"]
 
 
@@ -182,3 +182,48 @@ def config_outlines(cfg, x=None, k: int = 256) -> list:
     row_x = cfg.row_x if cfg.patches is None else cfg.patch_row_x
     radius = cfg.radius if cfg.sections is None else None
     return outlines_at(row_x if x is None else x, row_x, cfg.sections, radius, k=k)
+
+
+def parse_bone(bone, sections, radius, path):
+    """``geometry.bone`` as (y_c, z_c, r_b) [m], or None; one-line ConfigErrors naming the key.
+
+    A circle {centre: [y, z], radius} inside every row's skin outline (``sections``, or the
+    circles of ``radius``) with at least :data:`~phri_spring.physics.continuum.shape.BONE_MARGIN_M`
+    of tissue on every ray from its centre.
+    """
+    if bone is None:
+        return None
+    from ...physics.continuum.shape import BONE_MARGIN_M
+
+    key = "geometry.bone"
+    if not isinstance(bone, dict) or set(bone) != {"centre", "radius"}:
+        raise ConfigError("expected {centre: [y, z], radius} [m] (a circular bone)", file=path,
+                          key=key)
+    try:
+        c = np.asarray(bone["centre"], dtype=float)
+        rb = float(bone["radius"])
+    except (TypeError, ValueError):
+        raise ConfigError("expected {centre: [y, z], radius} as numbers [m]", file=path,
+                          key=key) from None
+    if c.shape != (2,) or not np.all(np.isfinite(c)):
+        raise ConfigError(f"expected two finite numbers [y, z] [m], got {bone['centre']!r}",
+                          file=path, key=f"{key}.centre")
+    if not (math.isfinite(rb) and rb > 0):
+        raise ConfigError(f"expected a finite radius > 0 m, got {bone['radius']!r}", file=path,
+                          key=f"{key}.radius")
+    th = np.linspace(0.0, 2.0 * math.pi, 721)[:-1]
+    th_c = np.array([math.atan2(c[1], c[0])])
+    rho = ((lambda r: (lambda a: np.full(np.shape(a), float(r)))) if sections is None
+           else (lambda s: s.rho))
+    rows = [rho(r) for r in (np.atleast_1d(radius) if sections is None else sections)]
+    # the least distance from the bone's centre to each row's skin (sampled outline), and
+    # the centre on the axis's side of the skin on its own ray
+    d = min(float(np.min(np.hypot(f(th) * np.cos(th) - c[0], f(th) * np.sin(th) - c[1])))
+            for f in rows)
+    inside = all(float(np.hypot(*c)) < float(f(th_c)[0]) for f in rows)
+    if not inside or d - rb < BONE_MARGIN_M:
+        got = f"{(d - rb) * 1e3:.3g} mm" if inside else "its centre outside the skin"
+        raise ConfigError(f"expected the bone inside the skin with at least "
+                          f"{BONE_MARGIN_M * 1e3:g} mm of tissue around it, got {got}",
+                          file=path, key=key)
+    return float(c[0]), float(c[1]), rb

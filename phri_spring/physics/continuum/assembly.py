@@ -112,7 +112,9 @@ def _surface_forms(tm, geometry, ib, rigid=True):
     for ep, fs in enumerate(tm.patch_facets):
         owner[[pos[f] for f in fs]] = ep
     n = geometry.n
-    nrm = _inward_normal(X)                                              # (3, nf, nq)
+    # the skin's inward unit normal: toward the axis on a circular cylinder, else the
+    # normal of the limb's skin on the ray through each point (shape.py)
+    nrm = _inward_normal(X) if tm.shape is None else tm.shape.inward_normal(X)
     Cloc = np.einsum("iafq,afq,fq->fi", phi, nrm, dx)
     C = np.zeros((ib.N, n))
     np.add.at(C, (d.ravel(), np.repeat(owner, nb)), Cloc.ravel())
@@ -225,7 +227,7 @@ class TissueFE:
 
 def assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends, *,
                        patch_modes: bool = True,
-                       patch_gap: float = DEFAULT_PATCH_GAP) -> TissueFE:
+                       patch_gap: float = DEFAULT_PATCH_GAP, bone=None) -> TissueFE:
     """Mesh, assemble (E = 1 Pa) and tie the seam of the tissue under a cuff.
 
     Parameters
@@ -247,12 +249,16 @@ def assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor,
     patch_gap : float, optional
         Free skin between neighbouring patches' plates [m]
         (:func:`~phri_spring.physics.continuum.mesh.patch_plates`).
+    bone : sequence (y_c, z_c, r_b) [m], optional
+        A circular bone; None: the skin moved inward by the thickness
+        (:mod:`~phri_spring.physics.continuum.shape`, which also maps the mesh onto a
+        non-circular or tapered limb).
 
     Returns
     -------
     TissueFE
     """
-    tm = build_mesh(geometry, thickness, level, length_factor, patch_gap)
+    tm = build_mesh(geometry, thickness, level, length_factor, patch_gap, bone)
     ib, Kfull = assemble(tm, poisson_ratio, ends)
     M, B, C = _surface_forms(tm, geometry, ib, rigid=patch_modes)
     g, n_red = periodic_map(tm.comp, tm.thickness)

@@ -20,6 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ...errors import ModelInputError, UsageError
+from .shape import layer_shape, reference_radius
 
 FE_EXTRA_HINT = "the coupled model's built-in FE needs scikit-fem: pip install -e .[fe]"
 
@@ -307,6 +308,7 @@ class _TissueMesh:
     cuff_facets: np.ndarray
     x_range: tuple
     patch_gap: float = 0.0    # free skin between neighbouring patches' plates [m]
+    shape: object = None      # LayerShape the nodes are mapped onto (shape.py); None: a circle
 
 
 def _distinct_angles(geometry):
@@ -385,7 +387,7 @@ def patch_gap_problem(geometry, patch_gap):
     g = float(patch_gap)
     if not (math.isfinite(g) and g >= 0):
         return f"expected a finite width >= 0 m, got {patch_gap!r}"
-    R = single_radius(geometry)
+    R = reference_radius(geometry)
     th_c, th_s, _ = _distinct_angles(geometry)
     xr, wr, _ = _distinct_rows(geometry)
     for c, w, scale, period, what in ((xr, wr, 1.0, None, "along the arm"),
@@ -420,7 +422,7 @@ def patch_plates(geometry, patch_gap):
     problem = patch_gap_problem(geometry, patch_gap)
     if problem is not None:
         raise ModelInputError(f"patch_gap: {problem}", "patch_gap")
-    R = single_radius(geometry)
+    R = reference_radius(geometry)
     g = float(patch_gap)
     th_c, th_s, th_inv = _distinct_angles(geometry)
     xr, wr, x_inv = _distinct_rows(geometry)
@@ -440,8 +442,10 @@ def _radial_nodes(R, t, n_r, ratio=1.0):
 
 
 def mesh_lines(geometry, thickness, level, length_factor, patch_gap):
-    """The breakpoints of the mesh along the arm, around it and through the thickness."""
-    R = single_radius(geometry)
+    """The breakpoints of the mesh along the arm, around it and through the thickness
+    (in the parametric coordinates (x, theta, r) of a cylinder of the reference radius,
+    :func:`~phri_spring.physics.continuum.shape.reference_radius`)."""
+    R = reference_radius(geometry)
     check_material(thickness=thickness, radius=R)
     level = int(level)
     if level < 1:
@@ -474,11 +478,17 @@ def mesh_size(geometry, thickness, level=DEFAULT_LEVEL, length_factor=DEFAULT_LE
     return a * b * c, 3 * (2 * a + 1) * (2 * b) * (2 * c + 1)
 
 
-def build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PATCH_GAP):
+def build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PATCH_GAP,
+               bone=None):
+    """The tissue mesh under a cuff; ``bone`` (y_c, z_c, r_b) [m]: a circular bone, None:
+    the skin moved inward by the thickness (on a limb of any shape: shape.py)."""
     sk = import_skfem()
     patch_gap = DEFAULT_PATCH_GAP if patch_gap is None else patch_gap
-    R = single_radius(geometry)
+    R = reference_radius(geometry)
+    shape = layer_shape(geometry, thickness, bone)
     ax, ang, rad = mesh_lines(geometry, thickness, level, length_factor, patch_gap)
+    if shape is not None:
+        shape.check(ang.nodes, ax.nodes)
     _, _, th_inv = _distinct_angles(geometry)
     _, _, x_inv = _distinct_rows(geometry)
     t, gap = float(thickness), float(patch_gap)
@@ -486,7 +496,10 @@ def build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PATC
     m2c = sk["MeshHex2"].from_mesh(m1)
     comp = m2c.doflocs
     xx, th, rr = comp
-    cart = np.vstack([xx, rr * np.cos(th), rr * np.sin(th)])
+    if shape is None:
+        cart = np.vstack([xx, rr * np.cos(th), rr * np.sin(th)])
+    else:
+        cart = shape.map_nodes(xx, th, rr, R, float(thickness))
     mesh = sk["MeshHex2"](cart, m2c.t)
     # skin facets: all four vertices on r = R
     fr = m1.p[2][m1.facets]
@@ -503,7 +516,7 @@ def build_mesh(geometry, thickness, level, length_factor, patch_gap=DEFAULT_PATC
     cuff = np.unique(np.concatenate(patch_facets))
     return _TissueMesh(mesh=mesh, comp=comp, radius=R, thickness=t, patch_facets=patch_facets,
                        cuff_facets=cuff, x_range=(float(ax.nodes[0]), float(ax.nodes[-1])),
-                       patch_gap=gap)
+                       patch_gap=gap, shape=shape)
 
 
 # ------------------------------------------------------------ periodic seam

@@ -42,6 +42,7 @@ from .assembly import assemble, assemble_tissue_fe  # noqa: F401
 from .mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, DEFAULT_PATCH_GAP,  # noqa: F401
                       FE_EXTRA_HINT, build_mesh, periodic_map, reduce_matrix, import_skfem,
                       check_material, patch_gap_problem, patch_plates, single_radius)
+from .shape import layer_shape, reference_radius
 from .punch import (PUNCH_RADIUS, flat_punch_stiffness, modulus_from_indenter,  # noqa: F401
                        sneddon_punch_stiffness)
 
@@ -54,6 +55,8 @@ __all__ = [
     "SurfaceOperators",
     "check_material",
     "single_radius",
+    "layer_shape",
+    "reference_radius",
     "patch_plates",
     "patch_gap_problem",
     "condensed_surface_stiffness",
@@ -104,11 +107,11 @@ def _geometry_key(geometry):
 
 
 def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_factor, ends,
-                          patch_gap=DEFAULT_PATCH_GAP):
+                          patch_gap=DEFAULT_PATCH_GAP, bone=None):
     """(K, N, info) of :func:`condensed_surface_operators` for E = 1 Pa, built."""
     t0 = time.perf_counter()
     fe = assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends,
-                            patch_gap=patch_gap)
+                            patch_gap=patch_gap, bone=bone)
     s = fe.skin
     mlu = fe.skin_mass_lu()
     Bs, Cs = fe.B[s], fe.C[s]
@@ -133,7 +136,8 @@ def condensed_surface_operators(geometry, thickness, young_modulus, poisson_rati
                                 level: int = DEFAULT_LEVEL,
                                 length_factor: float = DEFAULT_LENGTH_FACTOR,
                                 ends: str = "fixed",
-                                patch_gap: float = DEFAULT_PATCH_GAP) -> SurfaceOperators:
+                                patch_gap: float = DEFAULT_PATCH_GAP,
+                                bone=None) -> SurfaceOperators:
     """K and the local-normal output N of the tissue under the cuff patches.
 
     Same parameters as :func:`condensed_surface_stiffness`, plus
@@ -150,12 +154,16 @@ def condensed_surface_operators(geometry, thickness, young_modulus, poisson_rati
         neighbour (:func:`~phri_spring.physics.continuum.mesh.patch_plates`); 0: tiled plates,
         whose independent motions the mesh does not converge for (docs/coupled-fe.md);
         None: :data:`DEFAULT_PATCH_GAP`.
+    bone : sequence (y_c, z_c, r_b) [m], optional
+        A circular bone (``geometry.bone``); None: the skin moved inward by the thickness.
+        On a limb that is not a circular cylinder the mesh follows its rows' outlines and
+        taper (:mod:`~phri_spring.physics.continuum.shape`).
 
     Returns
     -------
     SurfaceOperators
     """
-    R = single_radius(geometry)
+    R = reference_radius(geometry)
     check_material(thickness=thickness, poisson_ratio=poisson_ratio,
                     young_modulus=young_modulus, radius=R)
     if ends not in ("fixed", "free"):
@@ -167,14 +175,15 @@ def condensed_surface_operators(geometry, thickness, young_modulus, poisson_rati
         raise ValueError(f"level: expected an integer >= 1, got {level!r}")
     patch_gap = DEFAULT_PATCH_GAP if patch_gap is None else float(patch_gap)
     patch_plates(geometry, patch_gap)            # refuses a gap that leaves no plate
+    shape = layer_shape(geometry, float(thickness), bone)
     key = (_geometry_key(geometry), float(thickness), float(poisson_ratio), int(level), lf,
-           str(ends), float(patch_gap))
+           str(ends), float(patch_gap), None if shape is None else shape.fingerprint())
     if key in _UNIT_CACHE:
         _UNIT_CACHE.move_to_end(key)
     else:
         _UNIT_CACHE[key] = _build_unit_operators(geometry, float(thickness),
                                                  float(poisson_ratio), int(level), lf, ends,
-                                                 float(patch_gap))
+                                                 float(patch_gap), bone)
         while len(_UNIT_CACHE) > _UNIT_CACHE_SIZE:
             _UNIT_CACHE.popitem(last=False)
     K1, N1, info = _UNIT_CACHE[key]

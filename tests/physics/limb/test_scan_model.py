@@ -261,7 +261,7 @@ def test_commands_on_a_scan(tmp_path):
     path = write_yaml(tmp_path, raw)
     assert run_phri("stiffness", path).exit_code == 0
     assert_one_line_error(run_phri("stiffness", path, "--arm", "coupled"), "geometry.scan",
-                          "circular", code=1)
+                          "not a scanned limb", code=1)
     assert cyl.resolve() in [Path(p).resolve() for p in load_config(path).stiffness_files]
     log = tmp_path / "log.csv"
     np.savetxt(log, np.column_stack([np.arange(5) * 0.01, random_wrenches(4)]),

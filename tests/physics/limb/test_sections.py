@@ -347,12 +347,20 @@ def test_config_errors_are_one_line_naming_the_key(tmp_path, changes, key, needl
 
 
 def test_coupled_arm_refuses_a_shape_its_fe_cannot_mesh(tmp_path):
-    for changes, key in ((dict(radius=None, section={"ellipse": [0.05, 0.04]}),
-                          "geometry.section"), (dict(taper_deg=4.0), "geometry.taper_deg")):
+    """The built-in FE meshes sections and tapers; it refuses, in one line naming the key, a
+    layer too thick for the limb, a hyperelastic law off the circular cylinder, and a bone
+    next to the user's own FE."""
+    for changes, cont, key, needle in (
+            (dict(taper_deg=4.0), {"thickness": 0.046}, "tissue.continuum.thickness",
+             "thinner layer"),
+            (dict(radius=None, section={"ellipse": [0.05, 0.04]}),
+             {"thickness": 0.02, "law": "neo_hookean"}, "geometry.section", "circular"),
+            (dict(bone={"centre": [0.0, 0.0], "radius": 0.02}),
+             {"thickness": 0.02, "surface_stiffness": "K.npz"}, "geometry.bone", "own FE")):
         raw = _cfg(**changes)
-        raw["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": 30000.0}
+        raw["tissue"]["continuum"] = {"young_modulus": 30000.0, **cont}
         res = run_phri("stiffness", write_yaml(tmp_path, raw), "--arm", "coupled")
-        assert_one_line_error(res, key, "circular", code=1)
+        assert_one_line_error(res, key, needle, code=1)
 
 
 def test_coupled_arm_takes_a_users_fe_of_any_shape(tmp_path):
@@ -423,5 +431,6 @@ def test_limb_presets_load_and_simulate(name, tmp_path):
         np.testing.assert_allclose(lhs, W + model.W_pre, rtol=0,
                                    atol=1e-9 * (1.0 + np.abs(W).max()))
         assert np.all(sol.forces >= 0)
+    # the coupled arm takes the section and taper once the config gives its continuum
     res = run_phri("stiffness", path, "--arm", "coupled")
-    assert_one_line_error(res, "geometry.section", "circular", code=1)
+    assert_one_line_error(res, "tissue.continuum", "needs tissue.continuum", code=1)
