@@ -1,8 +1,8 @@
 """The elastic band strap (``strap.model: band``, docs/model.md section 3.1) against the hoop.
 
-    python benchmarks/band_benchmark.py speed band     # solve a one-hour log, band strap
-    python benchmarks/band_benchmark.py speed hoop     # the same log, the preset's hoop
-    python benchmarks/band_benchmark.py peaks          # the presets' peak pressures
+    python -m benchmarks.band_benchmark speed band     # solve a one-hour log, band strap
+    python -m benchmarks.band_benchmark speed hoop     # the same log, the preset's hoop
+    python -m benchmarks.band_benchmark peaks          # the presets' peak pressures
 
 ``speed``: the human preset (configs/human_upper_arm.yaml, compliant arm, exponential
 tissue law) on a one-hour 100 Hz synthetic log (360,000 samples, deterministic: the paper's
@@ -21,17 +21,15 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 
-HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent))
 
-from phri_spring.io.config import config_from_dict  # noqa: E402
-from phri_spring.io.config.yaml_loader import load_yaml  # noqa: E402
-from phri_spring.physics.contact.solver import solve  # noqa: E402
-from phri_spring.workflows.common import cuff_wrench, model_from_config  # noqa: E402
+from benchmarks.common import ROOT
+from phri_spring.io.config import config_from_dict
+from phri_spring.io.config.yaml_loader import load_yaml
+from phri_spring.physics.contact.solver import solve
+from phri_spring.workflows.common import cuff_wrench, model_from_config
 
 BAND = {"model": "band", "width": 0.05, "stiffness": 500.0}
 PRESETS = ("harmony_upper_arm", "human_upper_arm", "human_forearm", "human_shank",
@@ -40,11 +38,11 @@ MAGNITUDES = (11.1, 33.4, 55.6)
 
 
 def config(preset: str, strap: str):
-    raw = load_yaml(HERE.parent / "configs" / f"{preset}.yaml")
+    raw = load_yaml(ROOT / "configs" / f"{preset}.yaml")
     raw.get("tissue", {}).pop("continuum", None)
     if strap == "band":
         raw["strap"] = {"tension": raw.get("strap", {}).get("tension", 15.0), **BAND}
-    return config_from_dict(raw, base_dir=HERE.parent / "configs")
+    return config_from_dict(raw, base_dir=ROOT / "configs")
 
 
 def hour_log(rate_hz: float = 100.0, seconds: float = 3600.0) -> np.ndarray:
