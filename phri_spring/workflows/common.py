@@ -11,6 +11,7 @@ from ..physics.cuff.loadcell import FORCE_UNITS, MOMENT_UNITS, loadcell_to_cuff
 from ..physics.springs.model import build_model, tissue_element_stiffness
 from ..io.memory.budget import (COUPLED_BYTES_PER_VALUE, COUPLED_GATHER_BYTES_PER_ELEMENT,
                                 check_model, dense_coupling_terms, fe_to_build)
+from ..physics.hyperelastic.laws import CONTINUUM_LAW_MODELS
 from ..plugins import ARM_MODELS, FALLBACK_COLOURS, ArmMemory, ArmModel, ArmUncertainty
 from ..reports.tissue_law_text import continuum_law_text
 
@@ -243,7 +244,7 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
     (:func:`~phri_spring.workflows.hyper_arm.hyper_coupled_model`) on this linear one.
     """
     _check_coupled_shape(cfg)
-    if cfg.continuum_law in ("neo_hookean", "ogden"):
+    if CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
         from .hyper_arm import hyper_coupled_model
 
         return hyper_coupled_model(
@@ -268,7 +269,7 @@ def _check_coupled_shape(cfg: Config) -> None:
         key, what = "geometry.section", "a non-circular section"
     else:
         key, what = "geometry.taper_deg", "a taper"
-    if cfg.continuum_law in ("neo_hookean", "ogden"):
+    if CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
         raise ConfigError(f"the coupled arm's {cfg.continuum_law} law is identified on the "
                           f"built-in FE, which meshes a circular cylindrical layer: {what} is "
                           "not available there yet (use --arm compliant or rigid)",

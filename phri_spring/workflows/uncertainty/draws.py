@@ -50,6 +50,7 @@ import numpy as np
 
 from ...errors import DataError, UsageError
 from ...io.config import Config
+from ...physics.hyperelastic.laws import CONTINUUM_LAW_MODELS
 from ...plugins import arm_record
 
 __all__ = ["UncertainInputs", "uncertain_inputs", "parse_sd", "draw_configs", "tissue_route",
@@ -362,7 +363,7 @@ def check_fe_cache(cfg: Config, inputs: UncertainInputs, arms) -> None:
             or not any(reaches_model(cfg, inputs, a) for a in cached)):
         return
     arm = cached[0]
-    if cfg.continuum_law in ("neo_hookean", "ogden"):
+    if CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
         raise UsageError(f"the {arm} arm's Monte Carlo with tissue.continuum.law "
                          f"{cfg.continuum_law} "
                          "would identify the reduced model again for every draw of the "
