@@ -117,6 +117,9 @@ class ArmModel:
     refuse : callable (cfg) -> None, optional
         Config checks with a physical reason, run before the memory check and the build:
         raises a one-line :class:`~phri_spring.errors.ConfigError` naming the key.
+    continuum : bool
+        Whether it reads ``tissue.continuum`` (the composition matrix crosses it with the
+        continuum laws and patch gaps).
     """
 
     name: str
@@ -129,6 +132,7 @@ class ArmModel:
     has_tissue: bool = True
     tissue_text: Optional[Callable] = None
     refuse: Optional[Callable] = None
+    continuum: bool = False
 
 
 #: name -> arm model, in registration order (filled by ``register_arm``)

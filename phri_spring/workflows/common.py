@@ -27,7 +27,8 @@ ARMS: tuple = tuple(ARM_MODELS)
 
 def register_arm(name: str, description: str, *, label: str = "", colour: str = "",
                  memory: ArmMemory = ArmMemory(), uncertainty: ArmUncertainty = ArmUncertainty(),
-                 has_tissue: bool = True, tissue_text=None, refuse=None):
+                 has_tissue: bool = True, tissue_text=None, refuse=None,
+                 continuum: bool = False):
     """Decorator: register ``build(cfg, cache_dir) -> model`` as the arm model ``name``, with
     what the rest of the package asks of it (the fields of
     :class:`~phri_spring.plugins.ArmModel`; docs/extending.md). Defaults: label
@@ -41,7 +42,8 @@ def register_arm(name: str, description: str, *, label: str = "", colour: str = 
                                     label=label or f"{name.replace('_', ' ').capitalize()} arm",
                                     colour=colour or free[0], memory=memory,
                                     uncertainty=uncertainty, has_tissue=has_tissue,
-                                    tissue_text=tissue_text, refuse=refuse)
+                                    tissue_text=tissue_text, refuse=refuse,
+                                    continuum=continuum)
         ARMS = tuple(ARM_MODELS)
         return build
     return deco
@@ -218,6 +220,7 @@ def _coupled_tissue_route(cfg: Config) -> str:
 @register_arm("coupled", "the tissue as a continuum layer on the bone, condensed by FE onto the "
                          "cuff's patches (needs tissue.continuum; docs/model.md section 10)",
               label="Coupled tissue", colour="#009E73", refuse=_coupled_refuses,
+              continuum=True,
               tissue_text=continuum_law_text,
               memory=ArmMemory(model_terms=dense_coupling_terms,
                                bytes_per_value=COUPLED_BYTES_PER_VALUE,
