@@ -199,8 +199,18 @@ def _fe_module(cfg: Config):
     return fe_tissue
 
 
+def _require_continuum(cfg: Config) -> None:
+    """The coupled arm models the tissue as the layer tissue.continuum describes."""
+    if cfg.continuum_thickness is None:
+        raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
+                          "young_modulus [Pa] unless tissue.stiffness holds indenter values)",
+                          file=cfg.path, key="tissue.continuum")
+
+
 def _coupled_refuses(cfg: Config) -> None:
-    """The coupled arm's continuum layer is elastic: no relaxation of tissue springs."""
+    """The coupled arm needs its continuum layer, and that layer is elastic: no relaxation
+    of tissue springs."""
+    _require_continuum(cfg)
     if cfg.tissue_relaxation is not None:
         raise ConfigError("relaxation acts on the spring arm's tissue springs; the coupled "
                           "arm's continuum layer is elastic (use --arm compliant)",
@@ -289,10 +299,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
     from ..physics.continuum.coupled import build_coupled_model, scale_patches
 
     key = "tissue.continuum"
-    if cfg.continuum_thickness is None:
-        raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
-                          "young_modulus [Pa] unless tissue.stiffness holds indenter values)",
-                          file=cfg.path, key=key)
+    _require_continuum(cfg)
     _check_coupled_shape(cfg)
     geom = geometry_from_config(cfg)
     # a limb of any shape comes with the user's own FE (checked above): its thinnest
