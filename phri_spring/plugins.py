@@ -15,7 +15,7 @@ import importlib
 from dataclasses import dataclass, field
 from typing import Callable, Optional
 
-__all__ = ["ArmMemory", "ArmUncertainty", "ArmModel", "ARM_MODELS", "arm_record",
+__all__ = ["ArmMemory", "ArmUncertainty", "ArmModel", "ARM_MODELS", "arm_models", "arm_record",
            "FALLBACK_COLOURS"]
 
 #: colours handed, in turn, to arms registered without one (Okabe-Ito, after the built-ins')
@@ -146,11 +146,16 @@ _PLAIN = ArmModel("", "", build=lambda cfg, cache_dir=None: None)
 BUILTIN_ARMS_MODULE = "phri_spring.workflows.common"
 
 
+def arm_models() -> dict:
+    """:data:`ARM_MODELS`, with the built-in arms registered."""
+    if not ARM_MODELS:
+        importlib.import_module(BUILTIN_ARMS_MODULE)
+    return ARM_MODELS
+
+
 def arm_record(arm) -> ArmModel:
     """The record of an arm (a name or the record itself); a name not registered gets the
     spring network's defaults (no terms beyond it, the compliant arm's routes)."""
     if isinstance(arm, ArmModel):
         return arm
-    if arm not in ARM_MODELS and not ARM_MODELS:
-        importlib.import_module(BUILTIN_ARMS_MODULE)
-    return ARM_MODELS.get(arm, _PLAIN)
+    return arm_models().get(arm, _PLAIN)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..plugins import ARM_MODELS
+from ..plugins import arm_models
 
 __all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "fast_png", "write_png", "figure_style"]
 
@@ -26,19 +26,19 @@ __all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "fast_png", "write_png", "f
 
 class _ArmField(Mapping):
     """A read-only view ``arm name -> one field of its registered record`` (a live view: an
-    arm registered later is in it; :data:`phri_spring.plugins.ARM_MODELS`)."""
+    arm registered later is in it; :func:`phri_spring.plugins.arm_models`)."""
 
     def __init__(self, attribute: str):
         self._attribute = attribute
 
     def __getitem__(self, arm):
-        return getattr(ARM_MODELS[arm], self._attribute)
+        return getattr(arm_models()[arm], self._attribute)
 
     def __iter__(self):
-        return iter(ARM_MODELS)
+        return iter(arm_models())
 
     def __len__(self):
-        return len(ARM_MODELS)
+        return len(arm_models())
 
 
 #: the colours the arm models declared (the built-ins: colour-blind-safe Okabe-Ito)

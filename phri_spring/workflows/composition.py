@@ -33,7 +33,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import PhriError
-from ..plugins import ARM_MODELS, arm_record
+from ..plugins import arm_models, arm_record
 
 __all__ = ["Combination", "Outcome", "combinations", "run_combination", "base_config",
            "markdown_table", "CONTINUUM_ARMS", "INTERFACES", "CUFFS", "PATCH_GAPS", "LIMBS",
@@ -50,7 +50,7 @@ class _ContinuumArms:
         return arm_record(arm).continuum
 
     def __iter__(self):
-        return (a for a, m in ARM_MODELS.items() if m.continuum)
+        return (a for a, m in arm_models().items() if m.continuum)
 
     def __repr__(self) -> str:
         return repr(tuple(self))

@@ -69,7 +69,8 @@ from .machine import ENV_LIMIT, MemoryBudget, available_memory
 
 __all__ = ["ENV_LIMIT", "MemoryEstimate", "MemoryBudget", "estimate", "available_memory",
            "check", "check_elements", "check_model", "plan_stream", "preferred_chunk_rows",
-           "fe_mesh_size", "fe_to_build", "dense_coupling_terms", "element_key", "CSV_MAX_COLUMNS", "MIN_CHUNK_ROWS", "format_bytes"]
+           "fe_mesh_size", "fe_to_build", "dense_coupling_terms", "element_key",
+           "CSV_MAX_COLUMNS", "MIN_CHUNK_ROWS", "format_bytes"]
 
 
 # --------------------------------------------------------------------------- constants
@@ -492,8 +493,8 @@ def _largest_fitting(at, want, budget, samples, shear, output_format, what, key,
         low = max(low, min(want, best))
     if not fits(at(low), budget):
         csv_ok = 1 + (3 if shear else 1) * (cfg.n_rows * cfg.angle_count) + 6 <= CSV_MAX_COLUMNS
-        advice = "expected fewer elements" + arm_record(arm).memory.advice + (", or a CSV output" if samples and
-                                                          csv_ok else "")
+        advice = "expected fewer elements" + arm_record(arm).memory.advice \
+            + (", or a CSV output" if samples and csv_ok else "")
         check(at(low), what=f"{what}, streamed {low:,} samples at a time,", key=key,
               advice=advice, file=cfg.path, budget=budget)
     hi = want
