@@ -11,7 +11,7 @@ from phri_spring.workflows.fit.laws import ELASTIC_PARTS, FIT_LAWS
 from ._common import info, warn
 
 
-_LAW_HELP = " ".join(f"{name}: {text}." for name, text in FIT_LAWS.items())
+_LAW_HELP = " ".join(f"{name}: {law.description}." for name, law in FIT_LAWS.items())
 
 
 @click.command("fit-stiffness", context_settings={"help_option_names": ["-h", "--help"]})

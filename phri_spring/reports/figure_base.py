@@ -12,17 +12,39 @@ used, never pyplot.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..plugins import arm_models
+
 __all__ = ["ARM_COLORS", "ARM_NAMES", "DEFAULT_DPI", "fast_png", "write_png", "figure_style"]
 
-#: colour-blind-safe colours of the arm models (Okabe-Ito orange and blue)
-ARM_COLORS = {"rigid": "#E69F00", "compliant": "#0072B2", "coupled": "#009E73"}
-#: how the arm models are named in figures
-ARM_NAMES = {"rigid": "Rigid arm", "compliant": "Compliant arm", "coupled": "Coupled tissue"}
+
+
+class _ArmField(Mapping):
+    """A read-only view ``arm name -> one field of its registered record`` (a live view: an
+    arm registered later is in it; :func:`phri_spring.plugins.arm_models`)."""
+
+    def __init__(self, attribute: str):
+        self._attribute = attribute
+
+    def __getitem__(self, arm):
+        return getattr(arm_models()[arm], self._attribute)
+
+    def __iter__(self):
+        return iter(arm_models())
+
+    def __len__(self):
+        return len(arm_models())
+
+
+#: the colours the arm models declared (the built-ins: colour-blind-safe Okabe-Ito)
+ARM_COLORS = _ArmField("colour")
+#: how the arm models are named in figures and tables (their declared labels)
+ARM_NAMES = _ArmField("label")
 #: resolution of saved figures [dpi]
 DEFAULT_DPI = 170
 

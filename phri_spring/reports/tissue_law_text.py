@@ -23,6 +23,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ..plugins import arm_record
+
 __all__ = ["effective_law", "is_nonlinear", "law_text", "arm_law_text", "arms_law_text",
            "values_text", "designs_law_text", "LAW_SYMBOLS"]
 
@@ -87,39 +89,43 @@ def _law_keys(cfg) -> list:
 
 
 def arm_law_text(cfg, arm: str) -> str:
-    """What the tissue of an arm is: the compliant arm's law (:func:`law_text`), ``no tissue
-    (cuff springs only)`` for the rigid arm, ``linear continuum`` (or ``neo-Hookean
-    continuum``, ``Ogden continuum``: ``tissue.continuum.law``) for the coupled arm (with the note that the law's parameters are not used by it, when the config gives a
-    nonlinear law)."""
-    if arm == "rigid":
-        return "no tissue (cuff springs only)"
-    if arm == "coupled":
-        notes = []
-        law = getattr(cfg, "continuum_law", "linear")
-        alpha = getattr(cfg, "continuum_ogden_alpha", None)
-        stiffening_used = law == "ogden" and alpha is None     # alpha from the indenter curve
-        if law == "neo_hookean":
-            name = "neo-Hookean continuum"
-            notes.append("reduced model, rigid bonded cuff")
-        elif law == "ogden":
-            name = "Ogden continuum"
-            notes.append(f"alpha {alpha:g}" if alpha is not None else
-                         "alpha identified from tissue.stiffening by the indenter FE")
-            notes.append("reduced model, rigid bonded cuff")
-        else:
-            name = "linear continuum"
-        if is_nonlinear(cfg) and not stiffening_used:
-            keys = _law_keys(cfg)
-            verb = "is" if len(keys) == 1 else "are"
-            notes.append(f"{' and '.join(keys)} {verb} used by the compliant arm only")
-        return name + (f" ({'; '.join(notes)})" if notes else "")
-    return law_text(cfg)
+    """What the tissue of an arm is: its registered ``tissue_text``
+    (:class:`~phri_spring.plugins.ArmModel`; ``no tissue (cuff springs only)`` for the rigid
+    arm, :func:`continuum_law_text` for the coupled arm), else the config's law
+    (:func:`law_text`)."""
+    text = arm_record(arm).tissue_text
+    return law_text(cfg) if text is None else text(cfg)
+
+
+def continuum_law_text(cfg) -> str:
+    """``linear continuum`` (or ``neo-Hookean continuum``, ``Ogden continuum``:
+    ``tissue.continuum.law``), with the note that the tissue law's parameters are not used by
+    it, when the config gives a nonlinear law: the coupled arm's tissue."""
+    notes = []
+    law = getattr(cfg, "continuum_law", "linear")
+    alpha = getattr(cfg, "continuum_ogden_alpha", None)
+    stiffening_used = law == "ogden" and alpha is None     # alpha from the indenter curve
+    if law == "neo_hookean":
+        name = "neo-Hookean continuum"
+        notes.append("reduced model, rigid bonded cuff")
+    elif law == "ogden":
+        name = "Ogden continuum"
+        notes.append(f"alpha {alpha:g}" if alpha is not None else
+                     "alpha identified from tissue.stiffening by the indenter FE")
+        notes.append("reduced model, rigid bonded cuff")
+    else:
+        name = "linear continuum"
+    if is_nonlinear(cfg) and not stiffening_used:
+        keys = _law_keys(cfg)
+        verb = "is" if len(keys) == 1 else "are"
+        notes.append(f"{' and '.join(keys)} {verb} used by the compliant arm only")
+    return name + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def arms_law_text(cfg, arms: Sequence[str]) -> str:
     """``compliant arm: exponential tissue law (beta 150 1/m); coupled arm: linear continuum
     (...)`` for the arms that have tissue (the rigid arm's text when it is the only one)."""
-    shown = [a for a in arms if a != "rigid"] or list(arms)
+    shown = [a for a in arms if arm_record(a).has_tissue] or list(arms)
     return "; ".join(f"{a} arm: {arm_law_text(cfg, a)}" for a in shown)
 
 
@@ -134,8 +140,10 @@ def designs_law_text(configs, arm: str) -> str:
     texts = list(dict.fromkeys(arm_law_text(c, arm) for c in configs))
     if len(texts) <= 1:
         return texts[0] if texts else ""
-    if arm == "coupled":        # the note wins: some design gives a law the continuum ignores
-        return next(t for t in texts if "(" in t)
+    if arm_record(arm).tissue_text is not None:
+        # the arm's own tissue (the coupled continuum): the note wins, some design gives a
+        # law that tissue ignores
+        return next((t for t in texts if "(" in t), texts[0])
     names = list(dict.fromkeys(effective_law(c)[0] for c in configs))
     units = {p.key: p.unit for c in configs for p in
              getattr(c.tissue_law_class or TISSUE_LAWS.get(c.tissue_law), "parameters", ())}

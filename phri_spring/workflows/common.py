@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Callable
-
 import numpy as np
 
 from ..errors import ConfigError, ModelInputError
@@ -12,43 +9,41 @@ from ..io.config import Config
 from ..physics.cuff.geometry import CuffGeometry
 from ..physics.cuff.loadcell import FORCE_UNITS, MOMENT_UNITS, loadcell_to_cuff
 from ..physics.springs.model import build_model, tissue_element_stiffness
-from ..io.memory.budget import check_model
+from ..io.memory.budget import (COUPLED_BYTES_PER_VALUE, COUPLED_GATHER_BYTES_PER_ELEMENT,
+                                check_model, dense_coupling_terms, fe_to_build)
+from ..physics.hyperelastic.laws import CONTINUUM_LAW_MODELS
+from ..plugins import ARM_MODELS, FALLBACK_COLOURS, ArmMemory, ArmModel, ArmUncertainty
+from ..reports.tissue_law_text import continuum_law_text
 
 __all__ = ["geometry_from_config", "model_from_config", "cuff_wrench", "ARMS", "ARM_MODELS",
-           "ArmModel", "register_arm"]
+           "ArmModel", "ArmMemory", "ArmUncertainty", "register_arm"]
 
 
-@dataclass(frozen=True)
-class ArmModel:
-    """An arm model a config can be solved with (``--arm NAME``; docs/model.md section 11.4).
 
-    Attributes
-    ----------
-    name : str
-    description : str
-        One line for ``--help`` and the docs.
-    build : callable (cfg: Config, cache_dir) -> model
-        Assembles the model of a config: an object with ``contact_system``, ``W_pre``,
-        ``labels``, ``areas`` and ``inv_area_kpa`` (``SpringModel`` and ``CoupledModel``
-        are the built-in ones).
-    """
-
-    name: str
-    description: str
-    build: Callable
+#: the names of :data:`ARM_MODELS` (:data:`phri_spring.plugins.ARM_MODELS`), in
+#: registration order
+ARMS: tuple = tuple(ARM_MODELS)
 
 
-#: name -> arm model: every command's list of arms reads it (see :func:`register_arm`)
-ARM_MODELS: dict = {}
-#: the names of :data:`ARM_MODELS`, in registration order
-ARMS: tuple = ()
-
-
-def register_arm(name: str, description: str):
-    """Decorator: register ``build(cfg, cache_dir) -> model`` as the arm model ``name``."""
+def register_arm(name: str, description: str, *, label: str = "", colour: str = "",
+                 memory: ArmMemory = ArmMemory(), uncertainty: ArmUncertainty = ArmUncertainty(),
+                 has_tissue: bool = True, tissue_text=None, refuse=None,
+                 continuum: bool = False):
+    """Decorator: register ``build(cfg, cache_dir) -> model`` as the arm model ``name``, with
+    what the rest of the package asks of it (the fields of
+    :class:`~phri_spring.plugins.ArmModel`; docs/extending.md). Defaults: label
+    ``"Name arm"``, the next free colour, the spring network's memory terms and the compliant
+    arm's uncertainty routes."""
     def deco(build):
         global ARMS
-        ARM_MODELS[name] = ArmModel(name, description, build)
+        used = {m.colour for m in ARM_MODELS.values()}
+        free = [c for c in FALLBACK_COLOURS if c not in used] or list(FALLBACK_COLOURS)
+        ARM_MODELS[name] = ArmModel(name, description, build,
+                                    label=label or f"{name.replace('_', ' ').capitalize()} arm",
+                                    colour=colour or free[0], memory=memory,
+                                    uncertainty=uncertainty, has_tissue=has_tissue,
+                                    tissue_text=tissue_text, refuse=refuse,
+                                    continuum=continuum)
         ARMS = tuple(ARM_MODELS)
         return build
     return deco
@@ -91,9 +86,11 @@ def model_from_config(cfg: Config, arm: str = "compliant", *, cache_dir=None):
     arm_model = arm if isinstance(arm, ArmModel) else ARM_MODELS.get(arm)
     if arm_model is None:
         raise ValueError(f"arm: expected one of {ARMS}, got {arm!r}")
+    if arm_model.refuse is not None:
+        arm_model.refuse(cfg)
     # before anything is allocated: an allocation that fails in C++ (the coupled FE, LAPACK)
     # aborts the process instead of raising (io/memory_budget.py)
-    check_model(cfg, arm_model.name, cache_dir=cache_dir)
+    check_model(cfg, arm_model, cache_dir=cache_dir)
     return arm_model.build(cfg, cache_dir)
 
 
@@ -107,13 +104,18 @@ _QUANTITY_KEYS = {"geometry": "geometry.angles", "shear_ratio": "interface.shear
 
 
 @register_arm("compliant", "tissue and cuff springs in series (the paper's compliant arm; "
-                           "any tissue law)")
+                           "any tissue law)", label="Compliant arm", colour="#0072B2")
 def _compliant_model(cfg: Config, cache_dir=None):
     model = _spring_model(cfg, "compliant")
     return history_model(model, cfg) if cfg.tissue_relaxation is not None else model
 
 
-@register_arm("rigid", "cuff springs only: the rigid-arm assumption of the literature")
+@register_arm("rigid", "cuff springs only: the rigid-arm assumption of the literature",
+              label="Rigid arm", colour="#E69F00", has_tissue=False,
+              tissue_text=lambda cfg: "no tissue (cuff springs only)",
+              uncertainty=ArmUncertainty(tissue_route=lambda cfg: "none", stiffening=False,
+                                         unused_tissue="has no tissue springs",
+                                         unused_stiffening="the rigid arm has no tissue"))
 def _rigid_model(cfg: Config, cache_dir=None):
     return _spring_model(cfg, "rigid")
 
@@ -208,14 +210,51 @@ def _fe_module(cfg: Config):
     return fe_tissue
 
 
-@register_arm("coupled", "the tissue as a continuum layer on the bone, condensed by FE onto the "
-                         "cuff's patches (needs tissue.continuum; docs/model.md section 10)")
-def _coupled_model(cfg: Config, cache_dir=None):
-    """The coupled tissue model of a config (docs/model.md section 10)."""
+def _require_continuum(cfg: Config) -> None:
+    """The coupled arm models the tissue as the layer tissue.continuum describes."""
+    if cfg.continuum_thickness is None:
+        raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
+                          "young_modulus [Pa] unless tissue.stiffness holds indenter values)",
+                          file=cfg.path, key="tissue.continuum")
+
+
+def _coupled_refuses(cfg: Config) -> None:
+    """The coupled arm needs its continuum layer, and that layer is elastic: no relaxation
+    of tissue springs."""
+    _require_continuum(cfg)
     if cfg.tissue_relaxation is not None:
         raise ConfigError("relaxation acts on the spring arm's tissue springs; the coupled "
                           "arm's continuum layer is elastic (use --arm compliant)",
                           file=cfg.path, key="tissue.relaxation")
+
+
+def _coupled_tissue_route(cfg: Config) -> str:
+    """How the tissue-stiffness scatter reaches the coupled arm: through E (derived from the
+    indenter stiffness per location, or the continuum's one given modulus); an FE export's
+    K is used as given, only per-patch E ratios from the indenter map act on it."""
+    derived = cfg.continuum_young_modulus is None
+    if cfg.continuum_surface_stiffness is not None:
+        return "stiffness" if derived and cfg.continuum_spread == "per_patch" else "none"
+    return "stiffness" if derived else "modulus"
+
+
+@register_arm("coupled", "the tissue as a continuum layer on the bone, condensed by FE onto the "
+                         "cuff's patches (needs tissue.continuum; docs/model.md section 10)",
+              label="Coupled tissue", colour="#009E73", refuse=_coupled_refuses,
+              continuum=True,
+              tissue_text=continuum_law_text,
+              memory=ArmMemory(model_terms=dense_coupling_terms,
+                               bytes_per_value=COUPLED_BYTES_PER_VALUE,
+                               bytes_per_element=COUPLED_GATHER_BYTES_PER_ELEMENT,
+                               fe_mesh=fe_to_build, advice=" (or --arm compliant)"),
+              uncertainty=ArmUncertainty(
+                  tissue_route=_coupled_tissue_route, stiffening=False, fe_cache=True,
+                  stiffness_via=", through the continuum's Young's modulus",
+                  unused_tissue="uses tissue.continuum.surface_stiffness, which does not "
+                                "scatter",
+                  unused_stiffening="the coupled arm's continuum is linear"))
+def _coupled_model(cfg: Config, cache_dir=None):
+    """The coupled tissue model of a config (docs/model.md section 10)."""
     return coupled_model(cfg, cache_dir=cache_dir)
 
 
@@ -229,7 +268,7 @@ def coupled_model(cfg: Config, *, cache_dir=None, level=None):
     (:func:`~phri_spring.workflows.hyper_arm.hyper_coupled_model`) on this linear one.
     """
     _check_coupled_shape(cfg)
-    if cfg.continuum_law in ("neo_hookean", "ogden"):
+    if CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
         from .hyper_arm import hyper_coupled_model
 
         return hyper_coupled_model(
@@ -263,7 +302,7 @@ def _check_coupled_shape(cfg: Config) -> None:
         key, what = "geometry.section", "a non-circular section"
     else:
         key, what = "geometry.taper_deg", "a taper"
-    if cfg.continuum_law in ("neo_hookean", "ogden"):
+    if CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
         raise ConfigError(f"the coupled arm's {cfg.continuum_law} law is identified on the "
                           f"built-in FE's circular cylindrical layer: {what} is not available "
                           "there yet (use the linear law, or --arm compliant or rigid)",
@@ -293,10 +332,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
         raise ConfigError("the band strap is not available with the coupled arm (its "
                           "continuum is condensed for a strap wrench that does not follow the "
                           "cuff); use --arm compliant or rigid", file=cfg.path, key="strap.stiffness")
-    if cfg.continuum_thickness is None:
-        raise ConfigError("the coupled arm needs tissue.continuum (thickness [m], and "
-                          "young_modulus [Pa] unless tissue.stiffness holds indenter values)",
-                          file=cfg.path, key=key)
+    _require_continuum(cfg)
     _check_coupled_shape(cfg)
     geom = geometry_from_config(cfg)
     # a limb of any shape: its thinnest point bounds the layer (the built-in FE's layer

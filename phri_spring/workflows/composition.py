@@ -33,6 +33,7 @@ from typing import Optional
 import numpy as np
 
 from ..errors import PhriError
+from ..plugins import arm_models, arm_record
 
 __all__ = ["Combination", "Outcome", "combinations", "run_combination", "base_config",
            "markdown_table", "CONTINUUM_ARMS", "INTERFACES", "CUFFS", "CUFF_STRAPS", "PATCH_GAPS",
@@ -40,8 +41,24 @@ __all__ = ["Combination", "Outcome", "combinations", "run_combination", "base_co
            "TISSUE_TIMES",
            "LOG_SAMPLES"]
 
+
+
+class _ContinuumArms:
+    """The registered arms that read tissue.continuum (their declared ``continuum``), a live
+    view: ``arm in CONTINUUM_ARMS``, ``list(CONTINUUM_ARMS)``."""
+
+    def __contains__(self, arm) -> bool:
+        return arm_record(arm).continuum
+
+    def __iter__(self):
+        return (a for a, m in arm_models().items() if m.continuum)
+
+    def __repr__(self) -> str:
+        return repr(tuple(self))
+
+
 #: arms that read tissue.continuum: the continuum law and the patch gap are axes for these
-CONTINUUM_ARMS = ("coupled",)
+CONTINUUM_ARMS = _ContinuumArms()
 #: interface name -> interface.friction_coefficient (None: bonded)
 INTERFACES = {"bonded": None, "mu 0.5": 0.5, "mu 0": 0.0}
 #: cuff name -> cuff.stiffness (None: the preset's compliant cuff)

@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ...errors import ConfigError
+from ...physics.hyperelastic.laws import checked_continuum_law
 from .schema_errors import config_error_from
 # the wrench-log columns of docs/model.md section 7, importable from here too
 from ..logs.columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
@@ -131,7 +132,8 @@ class _Continuum(_Strict):
                                        json_schema_extra=_unit("m"))
     #: the continuum's material (docs/model.md section 10.8): linear elastic, or the reduced
     #: neo-Hookean model identified by the large-deformation FE (extra ``hyper``)
-    law: Literal["linear", "neo_hookean", "ogden"] = "linear"
+    law: str = "linear"        # a name of physics.hyperelastic.laws.CONTINUUM_LAW_MODELS
+    _law_registered = field_validator("law")(checked_continuum_law)
     #: the Ogden law's exponent; None: identified from the indenter curve (tissue.stiffening)
     ogden_alpha: Optional[float] = Field(default=None, gt=0, le=40, allow_inf_nan=False,
                                          json_schema_extra=_unit("-"))

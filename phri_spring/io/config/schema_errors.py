@@ -45,6 +45,8 @@ def config_error_from(exc: ValidationError, path, valid_keys: Callable[[list], l
     if etype == "missing":
         return ConfigError("missing required key", file=path, key=".".join(loc))
     msg = err["msg"]
+    if etype == "value_error":      # a validator's own message: pydantic's prefix adds nothing
+        msg = msg.removeprefix("Value error, ")
     given = err.get("input")
     cls = ConfigTypeError if etype in _TYPE_ERRORS else ConfigError
     if isinstance(given, (int, float, str)) and not isinstance(given, bool):

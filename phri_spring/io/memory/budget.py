@@ -64,11 +64,13 @@ from pathlib import Path
 from typing import Optional
 
 from ...errors import ConfigError, DataError
+from ...plugins import arm_record
 from .machine import ENV_LIMIT, MemoryBudget, available_memory
 
 __all__ = ["ENV_LIMIT", "MemoryEstimate", "MemoryBudget", "estimate", "available_memory",
            "check", "check_elements", "check_model", "plan_stream", "preferred_chunk_rows",
-           "fe_mesh_size", "element_key", "CSV_MAX_COLUMNS", "MIN_CHUNK_ROWS", "format_bytes"]
+           "fe_mesh_size", "fe_to_build", "dense_coupling_terms", "element_key",
+           "CSV_MAX_COLUMNS", "MIN_CHUNK_ROWS", "format_bytes"]
 
 
 # --------------------------------------------------------------------------- constants
@@ -211,7 +213,9 @@ def estimate(size, arm: str = "compliant", chunk_rows: int = 0, *,
     Parameters
     ----------
     size : Config or (n_rows, n_angles)
-    arm : {'compliant', 'rigid', 'coupled'}
+    arm : str or ArmModel
+        A registered arm (its declared :class:`~phri_spring.plugins.ArmMemory` terms; a
+        name not registered: the spring network's terms only).
     chunk_rows : int
         Samples per streamed chunk (0: no stream, the model only).
     output_format : {'csv', 'parquet'}, optional
@@ -231,24 +235,22 @@ def estimate(size, arm: str = "compliant", chunk_rows: int = 0, *,
     designs, workers, load_samples : int
         ``phri design``: designs, worker processes, samples in the load set.
     fe : (hexahedra, dofs), optional
-        The coupled arm's built-in FE mesh (:func:`fe_mesh_size`); None when it is not
-        built (cached, or the user's own surface stiffness).
+        The built-in tissue FE's mesh (:func:`fe_mesh_size`) an arm builds; None when it is
+        not built (cached, or the user's own surface stiffness).
     """
     n_rows, n_angles = _size(size)
     n = n_rows * n_angles
-    coupled = arm == "coupled"
+    mem = arm_record(arm).memory
     terms = {"config": n * CONFIG_BYTES_PER_ELEMENT}
     model = MODEL_FIXED_BYTES + n * MODEL_BYTES_PER_ELEMENT
     n_models = max(1, draws) if (draws and distinct_draws) else 1
     terms["model"] = n_models * model
-    if coupled:
-        nd = 6 * n
-        terms["coupled"] = ((COUPLED_DENSE_COPIES + COUPLED_HELD_COPIES * (n_models - 1))
-                            * nd * nd * 8 + n_models * COUPLED_CACHED_SETS * 69 * n * 8)
-        if fe is not None:
-            hexes, dofs = fe
-            terms["tissue FE"] = (FE_FIXED_BYTES + int(hexes) * FE_BYTES_PER_HEX
-                                  + FE_DENSE_COPIES * int(dofs) * nd * 8)
+    if mem.model_terms is not None:
+        terms.update(mem.model_terms(n, n_models))
+    if fe is not None:
+        hexes, dofs = fe
+        terms["tissue FE"] = (FE_FIXED_BYTES + int(hexes) * FE_BYTES_PER_HEX
+                              + FE_DENSE_COPIES * int(dofs) * 6 * n * 8)
     reserved = 0
     rows = max(0, int(chunk_rows))
     if draws:
@@ -259,9 +261,8 @@ def estimate(size, arm: str = "compliant", chunk_rows: int = 0, *,
                           + max(DRAW_BLOCK_ENTRIES, draws * block * n) * DRAW_BYTES_PER_VALUE)
     if rows:
         per_value = CHUNK_BYTES_PER_VALUE + (SHEAR_BYTES_PER_VALUE if shear else 0) \
-            + (COUPLED_BYTES_PER_VALUE if coupled else 0)
-        terms["chunk"] = rows * n * per_value + (n * COUPLED_GATHER_BYTES_PER_ELEMENT
-                                                 if coupled else 0)
+            + mem.bytes_per_value
+        terms["chunk"] = rows * n * per_value + n * mem.bytes_per_element
     if output_format in ("csv", "parquet"):
         per_el = columns_per_element or (3 if shear else 1)
         cols = 1 + per_el * n + int(extra_columns)
@@ -341,9 +342,19 @@ def fe_mesh_size(cfg, geometry=None) -> tuple:
                              patch_gap=cfg.continuum_patch_gap)
 
 
-def _fe_to_build(cfg, cache_dir=None) -> Optional[tuple]:
-    """The FE mesh size when ``--arm coupled`` will build the FE, else None (cached, or the
-    user's own surface stiffness, or a config the model refuses anyway)."""
+def dense_coupling_terms(n_elements: int, n_models: int = 1) -> dict:
+    """The ``coupled`` term of a model holding dense (6n x 6n) matrices (about
+    :data:`COUPLED_DENSE_COPIES` live while it is built, :data:`COUPLED_HELD_COPIES` held per
+    further model) and its cached solves: an arm's :attr:`ArmMemory.model_terms`."""
+    nd = 6 * int(n_elements)
+    return {"coupled": (COUPLED_DENSE_COPIES + COUPLED_HELD_COPIES * (n_models - 1)) * nd * nd * 8
+            + n_models * COUPLED_CACHED_SETS * 69 * int(n_elements) * 8}
+
+
+def fe_to_build(cfg, cache_dir=None) -> Optional[tuple]:
+    """The FE mesh size when the built-in tissue FE will be built for ``tissue.continuum``,
+    else None (cached, or the user's own surface stiffness, or a config the model refuses
+    anyway): an arm's :attr:`ArmMemory.fe_mesh`."""
     if cfg.continuum_surface_stiffness is not None or cfg.continuum_thickness is None:
         return None
     from ..cache.surface_stiffness import cache_key, default_cache_dir
@@ -363,25 +374,24 @@ def _fe_to_build(cfg, cache_dir=None) -> Optional[tuple]:
         return None
 
 
-def _checked_fe(cfg, arm: str, cache_dir=None) -> Optional[tuple]:
-    """The coupled arm's FE mesh size (None: not built), after refusing a coupled model whose
-    dense matrices (checked first: cheap, so that a huge model is refused before its mesh is
-    even sized) or tissue FE cannot fit."""
-    if arm != "coupled":
+def _checked_fe(cfg, arm, cache_dir=None) -> Optional[tuple]:
+    """The arm's tissue FE mesh size (None: not built), after refusing a model whose dense
+    matrices (checked first: cheap, so that a huge model is refused before its mesh is
+    even sized) or tissue FE cannot fit (an arm with :attr:`ArmMemory.dense` terms)."""
+    rec = arm_record(arm)
+    if not rec.memory.dense:
         return None
     n_rows, n_angles = _size(cfg)
     what, key = _elements_text(n_rows, n_angles), element_key(n_rows, n_angles)
-    check(estimate(cfg, arm), key=key, advice=_COUPLED_ADVICE, file=cfg.path,
-          what=f"the coupled arm's matrices for {what}")
-    fe = _fe_to_build(cfg, cache_dir)
+    advice = f"expected fewer elements for the {rec.name} arm{rec.memory.advice}"
+    check(estimate(cfg, rec), key=key, advice=advice, file=cfg.path,
+          what=f"the {rec.name} arm's matrices for {what}")
+    fe = None if rec.memory.fe_mesh is None else rec.memory.fe_mesh(cfg, cache_dir)
     if fe is not None:
-        check(estimate(cfg, arm, fe=fe), key=key, advice=_COUPLED_ADVICE, file=cfg.path,
-              what=f"the coupled arm's tissue FE ({fe[0]:,} hexahedra, {fe[1]:,} dofs) for "
-                   f"{what}")
+        check(estimate(cfg, rec, fe=fe), key=key, advice=advice, file=cfg.path,
+              what=f"the {rec.name} arm's tissue FE ({fe[0]:,} hexahedra, {fe[1]:,} dofs) "
+                   f"for {what}")
     return fe
-
-
-_COUPLED_ADVICE = "expected fewer elements for the coupled arm (or --arm compliant)"
 
 
 def check_model(cfg, arm: str, *, cache_dir=None) -> None:
@@ -390,7 +400,7 @@ def check_model(cfg, arm: str, *, cache_dir=None) -> None:
 
     Called by :func:`phri_spring.workflows.common.model_from_config` before it builds.
     """
-    if arm == "coupled":
+    if arm_record(arm).memory.dense:
         _checked_fe(cfg, arm, cache_dir)
         return
     n_rows, n_angles = _size(cfg)
@@ -483,9 +493,8 @@ def _largest_fitting(at, want, budget, samples, shear, output_format, what, key,
         low = max(low, min(want, best))
     if not fits(at(low), budget):
         csv_ok = 1 + (3 if shear else 1) * (cfg.n_rows * cfg.angle_count) + 6 <= CSV_MAX_COLUMNS
-        advice = "expected fewer elements" + (" (or --arm compliant)" if arm == "coupled"
-                                              else "") + (", or a CSV output" if samples and
-                                                          csv_ok else "")
+        advice = "expected fewer elements" + arm_record(arm).memory.advice \
+            + (", or a CSV output" if samples and csv_ok else "")
         check(at(low), what=f"{what}, streamed {low:,} samples at a time,", key=key,
               advice=advice, file=cfg.path, budget=budget)
     hi = want
@@ -545,7 +554,7 @@ def check_design(study, base, workers: int, load_samples: int = 0) -> None:
     the elements."""
     designs = design_count(study)
     workers = max(0, min(int(workers), designs))
-    arm = study.arm if study.arm in ("rigid", "compliant", "coupled") else "compliant"
+    arm = study.arm
     # the best design's Monte Carlo (``uncertainty.draws``) keeps every drawn config
     draws = int(getattr(study.uncertainty, "draws", 0) or 0)
     est = estimate(base, arm, designs=designs, workers=workers, load_samples=load_samples,

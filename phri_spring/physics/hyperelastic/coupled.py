@@ -24,11 +24,13 @@ from ..continuum.coupled import CoupledModel
 from .reduced import HyperReduction, low_monomials, features, linear_bonded, solve_poses
 from .symmetry import mirror_group, symmetrized
 from ..springs.model import OnGeometry, field_unit
+from .laws import continuum_law_names
 
 __all__ = ["HyperCoupledModel", "CONTINUUM_LAWS"]
 
-#: the continuum laws of the coupled arm (``tissue.continuum.law``)
-CONTINUUM_LAWS = ("linear", "neo_hookean", "ogden")
+#: the names of the continuum laws of the coupled arm (``tissue.continuum.law``), in
+#: registration order (:data:`~phri_spring.physics.hyperelastic.laws.CONTINUUM_LAW_MODELS`)
+CONTINUUM_LAWS = continuum_law_names()
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,7 +1,7 @@
 """Tissue laws: the normal force of an element's tissue for a compression, as plug-ins.
 
 One module per law (:mod:`.linear`, :mod:`.exponential`), their base class and registry in
-:mod:`.base` (how to add one: docs/model.md section 11.2), and the series element of a law
+:mod:`.base` (how to add one: docs/extending.md), and the series element of a law
 with the cuff spring in :mod:`.series`. Every name is importable from here.
 
 >>> import numpy as np

@@ -13,7 +13,7 @@ element's linear cuff spring k_c,e (:class:`~phri_spring.physics.laws.series.Ser
 chain bone - tissue - skin - cuff - robot whose total compression d splits into
 the tissue's d_t and the cuff's f / k_c,e.
 
-Adding a law (docs/model.md, "Adding a tissue law"): subclass
+Adding a law (docs/extending.md, "Adding a tissue law"): subclass
 :class:`TissueLaw`, give it a ``name``, its ``parameters`` (config keys under
 ``tissue.``, each with its unit and default), implement ``force``, ``tangent``
 and ``energy``, and decorate it with :func:`register_law`. The config then

@@ -50,6 +50,8 @@ import numpy as np
 
 from ...errors import DataError, UsageError
 from ...io.config import Config
+from ...physics.hyperelastic.laws import CONTINUUM_LAW_MODELS
+from ...plugins import arm_record
 
 __all__ = ["UncertainInputs", "uncertain_inputs", "parse_sd", "draw_configs", "tissue_route",
            "modulus_sd", "perturbed_inputs", "perturbed_text", "reaches_model",
@@ -232,21 +234,15 @@ def tissue_route(cfg: Config, arm: str) -> str:
     ``'stiffness'`` (the per-location stiffness draws), ``'modulus'`` (the continuum's
     one Young's modulus) or ``'none'``.
     """
-    if arm == "rigid":
-        return "none"
-    if arm != "coupled":
-        return "stiffness"
-    derived = cfg.continuum_young_modulus is None
-    if cfg.continuum_surface_stiffness is not None:
-        # an export's K is used as given; only per-patch E ratios from the indenter map act
-        return "stiffness" if derived and cfg.continuum_spread == "per_patch" else "none"
-    return "stiffness" if derived else "modulus"
+    route = arm_record(arm).uncertainty.tissue_route
+    return "stiffness" if route is None else route(cfg)
 
 
 def stiffening_route(cfg: Config, arm: str) -> bool:
-    """Whether the arm's model runs the config's stiffening rate (the compliant arm with the
-    exponential law; the rigid arm has no tissue, the coupled arm's continuum is linear)."""
-    return arm not in ("rigid", "coupled") and STIFFENING in cfg.tissue_law_parameters
+    """Whether the arm's model runs the config's stiffening rate (its declared
+    ``uncertainty.stiffening``: the compliant arm with the exponential law; the rigid arm has
+    no tissue, the coupled arm's continuum is linear)."""
+    return arm_record(arm).uncertainty.stiffening and STIFFENING in cfg.tissue_law_parameters
 
 
 def modulus_sd(cfg: Config, inputs: UncertainInputs) -> float:
@@ -281,7 +277,7 @@ def perturbed_inputs(cfg: Config, inputs: UncertainInputs, arm: str,
     route, n = tissue_route(cfg, arm), cfg.n_elements
     m = int(np.count_nonzero(inputs.tissue_sd))
     if route == "stiffness" and m:
-        via = ", through the continuum's Young's modulus" if arm == "coupled" else ""
+        via = arm_record(arm).uncertainty.stiffness_via
         out.append(f"tissue.stiffness ({m} of {n} locations{via})")
     elif route == "modulus" and modulus_sd(cfg, inputs) > 0:
         out.append(f"tissue.continuum.young_modulus (relative SD "
@@ -300,16 +296,14 @@ def perturbed_text(cfg: Config, inputs: UncertainInputs, arm: str, noise: bool =
     """:func:`perturbed_inputs` as one phrase, saying why a given tissue SD does not act."""
     text = ", ".join(perturbed_inputs(cfg, inputs, arm, noise)) or "none"
     if np.any(inputs.tissue_sd) and tissue_route(cfg, arm) == "none":
-        why = ("has no tissue springs" if arm == "rigid" else
-               "uses tissue.continuum.surface_stiffness, which does not scatter")
+        why = arm_record(arm).uncertainty.unused_tissue
         text += f" (the tissue stiffness SD is unused: the {arm} arm {why})"
     beta = cfg.tissue_law_parameters.get(STIFFENING)
     if beta is not None and np.any(beta) and stiffening_route(cfg, arm) \
             and not np.any(inputs.beta_sd):
         text += "; tissue.stiffening held fixed (no SD given)"
     elif np.any(inputs.beta_sd) and not stiffening_route(cfg, arm):
-        why = ("the rigid arm has no tissue" if arm == "rigid" else
-               f"the {arm} arm's continuum is linear")
+        why = arm_record(arm).uncertainty.unused_stiffening
         text += f" (the stiffening SD is unused: {why})"
     return text
 
@@ -357,19 +351,23 @@ def draw_configs(cfg: Config, inputs: UncertainInputs, draws: int, seed: int) ->
 
 
 def check_fe_cache(cfg: Config, inputs: UncertainInputs, arms) -> None:
-    """Refuse (one line) a coupled-arm Monte Carlo whose FE would be rebuilt for every draw.
+    """Refuse (one line) a Monte Carlo whose FE would be rebuilt for every draw (an arm that
+    declares ``uncertainty.fe_cache``: the coupled arm).
 
     Every draw reloads the E = 1 matrices from the disk cache; a cache that
     cannot be written means one FE build (10-20 s) per draw.
     """
-    if ("coupled" not in arms or cfg.continuum_surface_stiffness is not None
-            or cfg.continuum_thickness is None or not reaches_model(cfg, inputs, "coupled")):
+    cached = [a for a in arms if arm_record(a).uncertainty.fe_cache]
+    if (not cached or cfg.continuum_surface_stiffness is not None
+            or cfg.continuum_thickness is None
+            or not any(reaches_model(cfg, inputs, a) for a in cached)):
         return
-    if cfg.continuum_law in ("neo_hookean", "ogden"):
-        raise UsageError("the coupled arm's Monte Carlo with tissue.continuum.law "
+    arm = cached[0]
+    if CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
+        raise UsageError(f"the {arm} arm's Monte Carlo with tissue.continuum.law "
                          f"{cfg.continuum_law} "
                          "would identify the reduced model again for every draw of the "
-                         "modulus or the strap tension (minutes each); run the coupled arm's "
+                         f"modulus or the strap tension (minutes each); run the {arm} arm's "
                          "uncertainty with the linear continuum", key="tissue.continuum.law")
     from ...io.cache.surface_stiffness import load_or_build_operators
     from ..common import geometry_from_config, model_from_config
@@ -378,10 +376,10 @@ def check_fe_cache(cfg: Config, inputs: UncertainInputs, arms) -> None:
         info = load_or_build_operators(geometry_from_config(cfg), cfg.continuum_thickness, 1.0,
                                        cfg.poisson_ratio).info
     except ValueError:
-        model_from_config(cfg, "coupled")   # the config's own one-line error
+        model_from_config(cfg, arm)   # the config's own one-line error
         raise
     if info.get("cache_error"):
-        raise UsageError(f"the coupled arm's Monte Carlo needs the surface-stiffness cache, "
+        raise UsageError(f"the {arm} arm's Monte Carlo needs the surface-stiffness cache, "
                          f"else the FE is rebuilt for every draw: {info['cache_error']}; set "
                          "it to a writable folder", key="PHRI_SPRING_CACHE")
 
