@@ -8,7 +8,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from test_design import make_study
+from support.design_study import make_study
 
 distributed = pytest.importorskip("distributed")
 

@@ -20,7 +20,7 @@ import yaml
 
 from support import reference_model as ref
 from support.helpers import assert_one_line_error, run_phri as run
-from test_stiffness import (CFG, cfg_of, fd_loadcell_map, loadcell_point_displacement,
+from support.stiffness_reference import (CFG, cfg_of, fd_loadcell_map, loadcell_point_displacement,
                             rotation_xyz, spec_cuff_stiffness)
 from phri_spring.errors import UsageError
 from phri_spring.physics.response.sweep import axis_loads, loadcell_motion

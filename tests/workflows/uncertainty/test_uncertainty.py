@@ -142,7 +142,7 @@ def ref_labels():
 
 def test_study_uncertainty_and_sobol(tmp_path):
     pytest.importorskip("SALib")
-    from test_design import make_study
+    from support.design_study import make_study
     from phri_spring.workflows.design.study import run_study
 
     path = make_study(tmp_path / "s", n=60, vary={"strap.tension": {"values": [10, 20]}},
