@@ -25,8 +25,8 @@ PACKAGES = {"phri_spring": ROOT / "phri_spring", "phri_cli": ROOT / "cli"}
 MAX_LINES = 600
 
 # ------------------------------------------------------------------------------ allow-lists
-#: (importing module, defining module, private name) still allowed (none). To keep it empty: make the name
-#: public in the defining module (``_x`` -> ``x``) and in its users.
+#: (importing module, defining module, private name) still allowed (none). To keep it
+#: empty: make the name public in the defining module (``_x`` -> ``x``) and in its users.
 PRIVATE_ALLOWED: set = set()
 #: import cycles still allowed, each the sorted modules of one strongly connected component.
 #: (physics/model.py <-> physics/solver.py is no cycle at module level: model.py imports

@@ -27,7 +27,8 @@ from ..logs.columns import LOG_COLUMNS, LOG_GROUP_KEY  # noqa: F401
 from .geometry import (check_scan_alone, geometry_sections, per_row_values, read_scan,
                               scan_geometry)
 from .history import ACTIVATION_FACTOR
-from .schema import config_units, validate_config_mapping  # noqa: F401 - importable from here too
+# the schema's unit table, importable from here too
+from .schema import config_units, validate_config_mapping  # noqa: F401
 from .tolerance import parse_tolerance
 from .values import check_plausible
 from .values import resolve_stiffness  # noqa: F401 - importable from here too
