@@ -1,6 +1,6 @@
 """The config's schema: the pydantic models every section of the YAML config is checked
 against (docs/model.md section 6), the unit of every key (:func:`config_units`) and
-pydantic's errors turned into one-line :class:`~phri_spring.errors.ConfigError`\ s
+pydantic's errors turned into one-line :class:`~phri_spring.errors.ConfigError` errors
 with the closest valid key.
 
 :func:`~phri_spring.io.config.config_from_dict` validates a mapping with
