@@ -45,7 +45,7 @@ from ..physics.contact.solver import Solver
 from ..io.config.tolerance import curve_option
 from .common import cuff_wrench, model_from_config
 from .columns.tolerance import LiveDose
-from .simulate import (Baseline, _baseline_forces, _extra_arrow_types, parse_baseline,
+from .pipeline import (Baseline, baseline_forces, extra_arrow_types, parse_baseline,
                        per_sample_extras)
 
 __all__ = ["LiveRun", "LiveSnapshot", "LiveSummary", "StreamHealth", "ALARM_CLEAR_FRACTION",
@@ -316,7 +316,7 @@ class LiveRun:
             self._events(None)
             if self.output is not None:
                 table = LiveTable(self.output, self.out_fmt, self.labels,
-                                  _extra_arrow_types(tolerance=self._dose is not None),
+                                  extra_arrow_types(tolerance=self._dose is not None),
                                   decimals=self.decimals).open()
             if self.lsl_out is not None:
                 outlet = LslOutlet(self.lsl_out, self.labels, self.source.nominal_rate)
@@ -350,7 +350,7 @@ class LiveRun:
         base = self.baseline
         held = [] if base.kind in ("first", "window") else None
         if base.kind == "zero":
-            self._f_base = _baseline_forces(model, cfg, base, None, cfg.max_iterations)
+            self._f_base = baseline_forces(model, cfg, base, None, cfg.max_iterations)
         t_end = None
         start = time.monotonic()
         self._rate = _Rate()
@@ -406,8 +406,8 @@ class LiveRun:
         if not mask.any():
             raise DataError(f"no sample in the baseline window {base} (the stream spans "
                             f"{times.min():g} to {times.max():g} s)", key="--baseline")
-        self._f_base = _baseline_forces(self.model, self.cfg, base, wrenches[mask].mean(axis=0),
-                                        self.cfg.max_iterations)
+        self._f_base = baseline_forces(self.model, self.cfg, base, wrenches[mask].mean(axis=0),
+                                       self.cfg.max_iterations)
         summary.baseline_forces = self._f_base
         for t, w in held:
             self._process(t, w, summary)

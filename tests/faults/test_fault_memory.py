@@ -331,7 +331,7 @@ def test_memory_error_is_one_line(inputs, out, monkeypatch):
     def fail(*args, **kwargs):
         raise MemoryError("Unable to allocate 24.0 GiB for an array with shape (1024, 3000000)")
 
-    monkeypatch.setattr(sim, "_solve_chunk", fail)
+    monkeypatch.setattr(sim, "solve_chunk", fail)
     (out / "f.csv").write_bytes(b"old\n")
     before = snapshot(out / "f.csv")
     run = cli("simulate", inputs["cfg"], inputs["log_csv"], "-o", out / "f.csv")
@@ -380,14 +380,14 @@ def test_terms_match_measured_allocations(inputs, out):
                       ("x", "radius", "row_width", "theta", "span", "points", "normals",
                        "areas", "b"))
         from phri_spring.physics.contact.solver import FactorCache
-        from phri_spring.workflows.simulate import _solve_chunk
+        from phri_spring.workflows.pipeline import solve_chunk
 
         rows = 1000
         w = np.tile(np.array([0.5, 20.0, 1.0, 0.01, 0.0, 0.0]), (rows, 1))
         w[:, 1] += np.linspace(0, 30, rows)
         tracemalloc.reset_peak()
         b = tracemalloc.get_traced_memory()[0]
-        ch = _solve_chunk(model, cuff_wrench(cfg, w), None, 100, FactorCache(), True)
+        ch = solve_chunk(model, cuff_wrench(cfg, w), None, 100, FactorCache(), True)
         ch.extras()
         chunk_peak = tracemalloc.get_traced_memory()[1] - b
     finally:

@@ -26,13 +26,15 @@ from __future__ import annotations
 import numpy as np
 
 from .spd6 import SYM6_FULL, SYM6_UPPER, spd_solve_batched as _spd_solve_batched
-from ..springs.newton import solve_newton, solve_newton_warm
+from ..springs.newton import solve_newton_warm
 from .solution import Solution
 from ..friction.states import interface_mu
 from ..springs.outputs import (compression, energy, forces_from_compression, normal_forces,
                              shear_forces)
 from .active_set import (PLAIN_ITERATIONS, SET_RTOL, ContactSystem, FactorCache, iterate,
-                         key_groups, set_keys, solve_warm)
+                         key_groups, solve_warm)
+from .paths import HUGE, make_system, nonlinear_finish, solve_direct, solve_friction
+from .single import Solver
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # annotations only: model.py imports this module for its contact system
@@ -44,8 +46,6 @@ __all__ = ["Solution", "solve", "solve_segments", "solve_per_sample", "Solver", 
 
 #: samples per internal block (bounds the (samples x elements) temporaries)
 _BLOCK_ENTRIES = 1 << 21
-#: a cuff displacement beyond this [m, rad] is no answer (an absurd input: forces overflow)
-_HUGE = 1e100
 # --------------------------------------------------------------------------- the spring system
 def _exact_step(k, g, h, a0, q) -> float:
     """Exact minimiser alpha >= 0 of Pi(u + alpha d).
@@ -197,23 +197,6 @@ class SpringSystem(ContactSystem):
         return forces_from_compression(self.model, q, out=out)
 
 
-def make_system(model, cache: FactorCache | None = None) -> ContactSystem:
-    """The kernel's system for a model (any arm model: ``model.contact_system``)."""
-    return model.contact_system(cache)
-
-
-def _nonlinear_finish(model, r, u, its, conv, max_iterations):
-    """For a spring model with a nonlinear law: Newton from the linear model's answer u, in
-    place (docs/model.md section 11); returns the compression g (m, n) and the element
-    forces (m, n) the iteration converged to."""
-    f = np.empty((len(r), model.n))
-    u[:], itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations,
-                                        forces_out=f)
-    its += itn
-    conv &= conv_n
-    return model.delta0 + u @ model.bT, f
-
-
 # --------------------------------------------------------------------------- batch solver
 def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
           initial_active=None, out: np.ndarray | None = None,
@@ -281,9 +264,9 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     if hasattr(model, "solve_band"):   # an elastic band strap (contact/band_solve.py)
         return model.solve_band(W[0] if single else W, max_iterations=max_iterations, cache=cache)
     if interface_mu(model) is not None:
-        return _solve_friction(model, W, single, cache)
+        return solve_friction(model, W, single, cache)
     if hasattr(model, "solve_wrenches"):
-        return _solve_direct(model, W, single, out, max_iterations)
+        return solve_direct(model, W, single, out, max_iterations)
     system = make_system(model, cache)
     linear = model.is_linear
     m, n = len(W), system.n
@@ -329,7 +312,7 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
                 S0 = np.ones((mb, n), dtype=bool) if carry is None else np.broadcast_to(carry, (mb, n))
                 ub, qb, _, itb, cb = iterate(system, rb, S0, max_iterations, q_out=qb)
             if not linear and not warm_newton:
-                qb[:], fb = _nonlinear_finish(model, rb, ub, itb, cb, max_iterations)
+                qb[:], fb = nonlinear_finish(model, rb, ub, itb, cb, max_iterations)
             u[s:e], its[s:e], conv[s:e] = ub, itb, cb
             # the settled set, read off the indicator before it becomes the forces in place
             np.greater(qb, 0.0, out=contact[s:e])
@@ -338,10 +321,10 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
                 system.forces(qb, out=qb, u=ub)
             else:
                 qb[:] = fb
-            # a displacement beyond _HUGE (or not finite) comes from an absurd input and is
+            # a displacement beyond HUGE (or not finite) comes from an absurd input and is
             # not an answer: its forces and pressures overflow (one cheap test first)
-            if not (ub.max() <= _HUGE and ub.min() >= -_HUGE):
-                conv[s:e] &= np.abs(ub).max(axis=1) <= _HUGE
+            if not (ub.max() <= HUGE and ub.min() >= -HUGE):
+                conv[s:e] &= np.abs(ub).max(axis=1) <= HUGE
     if finite_in is not None:
         conv &= finite_in
 
@@ -353,31 +336,6 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
                         contact=contact[0])
     return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
 
-
-#: rows per call of a model's own solver (bounds its (rows x monomials) temporaries)
-_DIRECT_ROWS = 2048
-
-
-def _solve_direct(model, W, single: bool, out, max_iterations: int) -> Solution:
-    """A model that solves its samples itself (``model.solve_wrenches``, e.g. the reduced
-    neo-Hookean coupled model): its rows in blocks, into ``out`` if given."""
-    m, n = len(W), model.n
-    if out is not None and not (isinstance(out, np.ndarray) and out.shape == (m, n)
-                                and out.dtype == np.float64 and out.flags.c_contiguous):
-        raise ValueError(f"out: expected a C-contiguous float64 array of shape ({m}, {n})")
-    forces = np.empty((m, n)) if out is None else out
-    u = np.empty((m, 6))
-    its = np.empty(m, dtype=np.int64)
-    conv = np.empty(m, dtype=bool)
-    contact = np.empty((m, n), dtype=bool)
-    for s in range(0, m, _DIRECT_ROWS):
-        e = min(m, s + _DIRECT_ROWS)
-        u[s:e], forces[s:e], its[s:e], conv[s:e], contact[s:e] = model.solve_wrenches(
-            W[s:e], max_iterations)
-    if single:
-        return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
-                        contact=contact[0])
-    return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact)
 
 
 def solve_segments(model, wrench, bounds, *, max_iterations: int = 100) -> Solution:
@@ -396,45 +354,6 @@ def solve_segments(model, wrench, bounds, *, max_iterations: int = 100) -> Solut
                      else np.concatenate([getattr(p, name) for p in parts]))
     return Solution(**cat)
 
-
-def _solve_friction(model, W, single: bool, cache: FactorCache | None,
-                    state=None) -> Solution:
-    """:func:`solve` with Coulomb friction: the rows of W are a loading path, solved in order
-    from the state ``cache`` carries (a fresh cache: the strap's state at zero wrench)."""
-    from ..friction.path import interface_form, solve_path
-
-    cache = FactorCache(0) if cache is None else cache
-    if cache.path_form is None or cache.path_form[0] is not model:
-        cache.path_form = (model, interface_form(model))
-    form = cache.path_form[1]
-    with np.errstate(over="ignore", invalid="ignore"):
-        r = W + model.W_pre
-    finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= _HUGE)
-    r = np.where(finite[:, None], r, model.W_pre)
-    u, P, cls, solves, conv, end = solve_path(form, r, cache.path_state if state is None
-                                              else state, cache.path_maps)
-    cache.path_state = end
-    conv &= finite
-    n, d = form.n, form.d
-    Pe = P.reshape(len(W), n, d)
-    normal = Pe[:, :, 0].copy()
-    tangential = Pe[:, :, 1:3].copy()
-    moments = Pe[:, :, 3:6].copy() if d == 6 else None
-    contact = (cls > 0) & conv[:, None]
-    if hasattr(model, "reported_normal"):   # a coupled patch reports its traction integral
-        forces = model.reported_normal(P, contact)
-    else:
-        forces = np.maximum(normal, 0.0)
-    for a in (forces, normal, tangential, moments):
-        if a is not None:
-            a[~conv] = np.nan
-    its = np.maximum(solves, 1)
-    if single:
-        return Solution(u=u[0], forces=forces[0], iterations=its[0], converged=conv[0],
-                        contact=contact[0], tangential=tangential[0],
-                        moments=None if moments is None else moments[0], normal=normal[0])
-    return Solution(u=u, forces=forces, iterations=its, converged=conv, contact=contact,
-                    tangential=tangential, moments=moments, normal=normal)
 
 
 def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
@@ -465,7 +384,7 @@ def solve_per_sample(model, wrench, *, max_iterations: int = 100) -> Solution:
         u[i], q[i], its[i], conv[i] = ui[0], qi[0], it_i[0], ok[0]
     f_nl = None
     if not model.is_linear:
-        q, f_nl = _nonlinear_finish(model, W + model.W_pre, u, its, conv, max_iterations)
+        q, f_nl = nonlinear_finish(model, W + model.W_pre, u, its, conv, max_iterations)
     contact = (q > 0) & conv[:, None]
     forces = system.forces(q, u=u) if f_nl is None else f_nl
     forces[~conv] = np.nan
@@ -496,126 +415,3 @@ def _per_sample_friction(model, W) -> Solution:
     return Solution(u=u, forces=forces, iterations=its, converged=conv,
                     contact=contact, tangential=Pe[:, :, 1:3].copy(),
                     moments=Pe[:, :, 3:6].copy() if d == 6 else None, normal=Pe[:, :, 0].copy())
-
-
-class Solver:
-    """Single-sample solver for control loops, warm-started from the previous call.
-
-    Keeps the contact set of the last call and a cache of the factorisation of
-    every contact set met, so a call usually costs one 6x6 product and one
-    consistency check. It runs the same kernel as :func:`solve`, on one row.
-
-    Parameters
-    ----------
-    model : SpringModel or CoupledModel
-    max_iterations : int
-        Most linear solves per call.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from phri_spring.physics.cuff.geometry import cuff_geometry
-    >>> from phri_spring.physics.springs.model import build_model
-    >>> model = build_model(cuff_geometry([0.0], 0.045, 0.025, 75.0, 35.0, 7), 50e3, 1e6)
-    >>> solver = Solver(model)
-    >>> f = solver.forces([0.0, 0.0, 20.0, 0.0, 0.0, 0.0])    # 20 N along z, cuff frame
-    >>> f.shape, solver.last_converged
-    ((7,), True)
-    >>> bool(np.allclose(f, solve(model, [0.0, 0.0, 20.0, 0, 0, 0]).forces))
-    True
-    """
-
-    def __init__(self, model, max_iterations: int = 100):
-        self.model = model
-        self.max_iterations = int(max_iterations)
-        self.cache = FactorCache()
-        self._direct = hasattr(model, "solve_wrenches")
-        self._system = None if self._direct else make_system(model, self.cache)
-        self._linear = model.is_linear
-        self._wpre = model.W_pre
-        self._S = np.ones((1, model.n), dtype=bool)
-        self._keys = set_keys(self._S)
-        self._q = None
-        self._f_nl = None      # a nonlinear law's forces of the last call, from its iteration
-        self.last_iterations = 0
-        self.last_converged = True
-
-    def displacement(self, wrench) -> np.ndarray:
-        """Cuff displacement u (6,) [m, rad] for one wrench W (6,) [N, N*m] in the cuff frame."""
-        if interface_mu(self.model) is not None:
-            return self._friction_step(wrench)
-        if self._direct:
-            return self._direct_step(wrench)
-        r = np.asarray(wrench, dtype=float) + self._wpre
-        size = np.abs(r).max() if r.shape == (6,) else np.nan
-        if not size <= _HUGE and not np.isfinite(size):
-            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
-        if size <= _HUGE:
-            u, q, _, its, conv = iterate(self._system, r[None], self._S, self.max_iterations,
-                                            keys=self._keys)
-            ok = bool(conv[0])
-        else:  # absurd but finite input: the result may overflow, which is not an answer
-            with np.errstate(over="ignore", invalid="ignore"):
-                u, q, _, its, conv = iterate(self._system, r[None], self._S,
-                                                self.max_iterations, keys=self._keys)
-                ok = bool(conv[0]) and bool(np.abs(u).max() <= _HUGE)
-        self._f_nl = None
-        if not self._linear:
-            q, self._f_nl = _nonlinear_finish(self.model, r[None], u, its, conv,
-                                              self.max_iterations)
-            ok = ok and bool(conv[0])
-        self.last_iterations, self.last_converged = int(its[0]), ok
-        # the next call starts from the set read off this indicator; its key must be that
-        # set's own (the kernel's keys name the set it last solved with, which can differ
-        # from q > 0 at a contact on the boundary, and a key names a cached factorisation)
-        S = q > 0
-        if (S != self._S).any():   # the usual call keeps its set, and its key
-            self._keys = set_keys(S)
-        self._S, self._q = S, q
-        return u[0]
-
-    def _direct_step(self, wrench) -> np.ndarray:
-        """One sample of a model that solves its samples itself (``solve_wrenches``)."""
-        W = np.asarray(wrench, dtype=float)
-        if W.shape != (6,) or not np.all(np.isfinite(W)):
-            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
-        u, f, its, conv, contact = self.model.solve_wrenches(W[None], self.max_iterations)
-        self.last_iterations, self.last_converged = int(its[0]), bool(conv[0])
-        self._f_nl, self._q, self._S = f, f[0], contact
-        return u[0]
-
-    def _friction_step(self, wrench) -> np.ndarray:
-        """One sample of the loading path with friction, from where the last call left it."""
-        W = np.asarray(wrench, dtype=float)
-        if W.shape != (6,) or not np.all(np.isfinite(W)):
-            raise ValueError(f"wrench: expected 6 finite numbers, got {wrench!r}")
-        sol = _solve_friction(self.model, W[None], False, self.cache)
-        self.last_iterations = int(sol.iterations[0])
-        self.last_converged = bool(sol.converged[0])
-        self._q = sol.forces[0]
-        self._S = sol.contact[:1]
-        self.last_tangential = sol.tangential[0]
-        return sol.u[0]
-
-    @property
-    def last_contact(self) -> np.ndarray:
-        """The contact set (n,) bool the last call settled on (all False if it did not converge)."""
-        if self._q is None:
-            return np.zeros(self.model.n, dtype=bool)
-        return self._S[0] & self.last_converged
-
-    def forces(self, wrench) -> np.ndarray:
-        """Normal force of every element f_e (n,) [N] for one wrench W (6,) [N, N*m].
-
-        NaN everywhere if the solver did not converge (see ``last_converged``).
-        """
-        u = self.displacement(wrench)
-        if interface_mu(self.model) is not None:
-            return self._q.copy()
-        if self._f_nl is not None:
-            f = self._f_nl[0].copy()
-        else:
-            f = self._system.forces(self._q, u=u[None])[0]
-        if not self.last_converged:
-            f[:] = np.nan
-        return f

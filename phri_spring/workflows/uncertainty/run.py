@@ -10,10 +10,10 @@ arm: the continuum's Young's modulus; the rigid arm: no tissue) are in
 for each, and returns the 5th, 50th and 95th percentiles over the draws of
 every element's force and of the per-sample peak pressure / pain threshold.
 Each draw's chunk is solved, and its peak pressure / pain threshold computed,
-by ``simulate``'s own chunk path (:func:`.simulate._solve_chunk`,
-:func:`.simulate.per_sample_extras`), and :func:`simulate_uncertainty_file`
+by ``simulate``'s own chunk path (:func:`.pipeline.solve_chunk`,
+:func:`.pipeline.per_sample_extras`), and :func:`simulate_uncertainty_file`
 streams a log through the setup, reader and writer ``simulate`` uses
-(:func:`.simulate.open_log_run`). Every output names what scattered.
+(:func:`.log_run.open_log_run`). Every output names what scattered.
 
 The bands of ``phri compare --uncertainty`` are in :mod:`.compare_bands`, a
 design study's Monte Carlo and Sobol indices in :mod:`.design_uncertainty`;
@@ -38,7 +38,8 @@ from ...reports.uncertainty.report import monte_carlo_summary_line
 from ..common import cuff_wrench, model_from_config
 from ..compare.bands import compare_bands, write_compare_bands  # noqa: F401 - importable here
 from ..design.uncertainty import sobol_indices, study_uncertainty  # noqa: F401 - importable here
-from ..simulate import _solve_chunk, open_log_run
+from ..log_run import open_log_run
+from ..pipeline import solve_chunk
 from .draws import (PERCENTILES, UncertainInputs, check_fe_cache,
                               draw_configs, parse_sd, perturbed_text, reaches_model,
                               uncertain_inputs)
@@ -161,8 +162,8 @@ class MonteCarloStream:
                 wd = wd + rng.standard_normal(wd.shape) * self.noise_sd
             # a cache of its own: a draw's model is not the next draw's; with friction the
             # draw's cache also carries its loading path from block to block
-            chunk = _solve_chunk(self.models[d], cuff_wrench(cfg, wd), None,
-                                 cfg.max_iterations, self._cache(d))
+            chunk = solve_chunk(self.models[d], cuff_wrench(cfg, wd), None,
+                                cfg.max_iterations, self._cache(d))
             F[d] = chunk.forces
             R[d] = chunk.extras()[0]["peak_pressure_to_pain_threshold"]
             self.not_converged += int((~chunk.solution.converged).sum())
@@ -298,7 +299,7 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
     """``phri simulate --uncertainty N``: stream a log through :class:`MonteCarloStream`.
 
     The log is read, and the table written, as ``simulate`` does
-    (:func:`.simulate.open_log_run`: ``columns`` merged over
+    (:func:`.log_run.open_log_run`: ``columns`` merged over
     ``load_cell.columns``, ``group`` the TDMS group or MAT struct, default
     ``load_cell.group``). The table (the columns of :func:`write_monte_carlo`;
     CSV forces to 1 uN) is written block by block into a temporary file that
