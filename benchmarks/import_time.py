@@ -4,7 +4,7 @@ Each run is ``PYTHON -X importtime -c "import phri_cli.main"`` in a fresh proces
 figure is the cumulative import time of ``phri_cli.main`` (what ``phri --help`` imports
 before it prints) as Python's own ``-X importtime`` reports it, in microseconds.
 
-    python benchmarks/import_time.py A_PYTHON B_PYTHON [-n RUNS]
+    python -m benchmarks.import_time A_PYTHON B_PYTHON [-n RUNS]
 
 Prints the median of A, of B and of the pairwise ratios A/B.
 """
