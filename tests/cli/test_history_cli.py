@@ -103,7 +103,8 @@ def test_bad_relaxation_is_one_line_naming_the_key(tmp_path, relaxation, needle)
 
 
 def test_the_coupled_arm_is_refused_in_one_line(tmp_path):
-    cfg = _config(tmp_path, relaxation={"fractions": [0.3], "times_s": [1.0]})
+    cfg = _config(tmp_path, relaxation={"fractions": [0.3], "times_s": [1.0]},
+                  continuum={"thickness": 0.02, "young_modulus": 3.0e4})
     r = _run("simulate", cfg, _log(tmp_path / "l.csv"), "-o", tmp_path / "o.csv",
              "--arm", "coupled")
     assert r.exit_code == 1
