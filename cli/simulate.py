@@ -27,7 +27,7 @@ from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
                    "zero wrench) | first:SECONDS | window:T0:T1 (subtract the forces at the "
                    "mean wrench of that window, times in s).")
 @click.option("--column", "columns", multiple=True, metavar="NAME=LOG_NAME",
-              help="Map a spec column (time, Fx, Fy, Fz, Mx, My, Mz) to the log's name, "
+              help="Map a spec column (time, Fx, Fy, Fz, Mx, My, Mz; optional activation, 0..1: the muscle under the cuff, docs/model.md section 15) to the log's name, "
                    "e.g. --column 'Fx=Fx (N)'. Repeatable; overrides load_cell.columns.")
 @click.option("--group", default=None, metavar="NAME",
               help="TDMS logs: the group holding the channels; MAT logs: the struct holding "

@@ -46,3 +46,8 @@ autodoc_typehints = "signature"
 html_theme = "alabaster"
 html_title = "phri-spring"
 html_static_path: list[str] = []
+
+# a class re-exported by its package (``phri_spring.physics.laws.SeriesElement`` is
+# ``phri_spring.physics.laws.series.SeriesElement``) is one object under two names: a
+# reference to it by its short name (a type annotation) finds both, which is not an error
+suppress_warnings = ["ref.python"]

@@ -86,7 +86,7 @@ class LogRun:
         the run's own.
     group : str or None
         TDMS group or MAT struct read: the run's own, else ``load_cell.group``.
-    baseline : Baseline
+    baseline : phri_spring.workflows.pipeline.Baseline
     """
 
     cfg: Config
