@@ -200,7 +200,9 @@ def test_bad_config_names_the_key(strap, key):
 
 
 def test_refused_combinations_name_the_key():
-    cfg = config_from_dict(_cfg(model="band", width=0.05, stiffness=300.0))
+    d = _cfg(model="band", width=0.05, stiffness=300.0)
+    d["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": 3.0e4}
+    cfg = config_from_dict(d)
     with pytest.raises(ConfigError) as exc:
         model_from_config(cfg, "coupled")
     assert exc.value.key == "strap.stiffness" and "coupled arm" in str(exc.value)

@@ -19,6 +19,9 @@ from support.helpers import REPO
 #: package -> layer (higher may import lower, never the reverse)
 LAYERS = {
     "phri_spring.errors": 0, "phri_spring.objectives": 0,
+    # the plug-in records: a registry every layer reads (it imports nothing of the package
+    # at module level; the built-in arms are loaded by name on first look-up)
+    "phri_spring.plugins": 0,
     "phri_spring.physics": 1,
     "phri_spring.io": 2,
     "phri_spring.reports": 3,
