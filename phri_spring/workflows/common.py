@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ..errors import ConfigError, ModelInputError
@@ -123,7 +125,9 @@ def _rigid_model(cfg: Config, cache_dir=None):
 def history_model(model, cfg: Config):
     """``model`` solved sample by sample with the config's tissue relaxation and activation
     factor (:class:`~phri_spring.physics.history.model.HistoryModel`): the compliant arm. The rigid
-    arm has no tissue and is returned as it is; the coupled arm is refused in one line."""
+    arm has no tissue and is returned as it is; the linear coupled arm takes the activation
+    (:class:`~phri_spring.physics.history.path.PathActivation`), its relaxation is
+    refused in one line."""
     from ..physics.history.model import HistoryModel
     from ..physics.history.relaxation import Prony
 
@@ -134,10 +138,26 @@ def history_model(model, cfg: Config):
         raise ConfigError("relaxation and activation are not available with the band strap "
                           "(the band's tension is solved per sample, not along the tissue's "
                           "time path); use hoop or handles", file=cfg.path, key=key)
-    if not hasattr(model, "element"):
-        raise ConfigError("relaxation and activation act on the spring arm's tissue springs; "
-                          "the coupled arm's continuum layer is elastic (use --arm compliant)",
+    coupled = not hasattr(model, "element")
+    if coupled and cfg.tissue_relaxation is not None:
+        raise ConfigError("relaxation acts on the spring arm's tissue springs; the coupled "
+                          "arm's continuum layer is elastic (use --arm compliant)",
                           file=cfg.path, key=key)
+    if coupled or (cfg.tissue_relaxation is None and cfg.friction_coefficient is not None):
+        # activation along the interface's loading path: the coupled arm's layer, or the
+        # spring arm's tissue springs with friction (docs/model.md section 15.2)
+        from ..physics.history.path import PathActivation
+
+        geom = None if coupled else geometry_from_config(cfg)
+
+        def scaled(s: float):
+            k = np.asarray(cfg.tissue_stiffness, dtype=float) * s
+            return _spring_model(dataclasses.replace(cfg, tissue_stiffness=k), model.arm, geom)
+
+        try:
+            return PathActivation(model, cfg.activation_factor, None if coupled else scaled)
+        except ModelInputError as exc:
+            raise ConfigError(str(exc), file=cfg.path, key=key) from None
     try:
         prony = None if cfg.tissue_relaxation is None else Prony(*cfg.tissue_relaxation)
         return HistoryModel(model, prony, cfg.activation_factor)
@@ -145,9 +165,21 @@ def history_model(model, cfg: Config):
         raise ConfigError(str(exc), file=cfg.path, key=key) from None
 
 
-def _spring_model(cfg: Config, arm: str):
-    """The spring network of docs/model.md sections 1-4 for the compliant or rigid arm."""
-    geom = geometry_from_config(cfg)
+def refuse_activation(cfg: Config, arm: str) -> None:
+    """One line (ConfigError) if a log's activation column cannot act on this arm, raised
+    before the model is built: the hyperelastic layers' reduced models are identified for
+    one modulus (docs/model.md section 15.2)."""
+    if arm == "coupled" and CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
+        raise ConfigError(f"a muscle activation column with tissue.continuum.law "
+                          f"{cfg.continuum_law}: its reduced model is identified for one "
+                          f"modulus; the linear continuum or the compliant arm takes the "
+                          f"column", file=cfg.path, key="tissue.activation_factor")
+
+
+def _spring_model(cfg: Config, arm: str, geom: CuffGeometry | None = None):
+    """The spring network of docs/model.md sections 1-4 for the compliant or rigid arm (on
+    ``geom``, the config's geometry, if already made)."""
+    geom = geometry_from_config(cfg) if geom is None else geom
     k_t = tissue_element_stiffness(cfg.tissue_stiffness, geom.areas, cfg.tissue_basis,
                                    cfg.indenter_diameter)
     k_c = cfg.cuff_stiffness

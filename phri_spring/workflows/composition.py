@@ -72,10 +72,11 @@ CUFF_STRAPS = {"compliant, band": {"tension": 15.0, "model": "band", "width": 0.
 LIMBS = {"circle": None,
          "ellipse, taper": {"section": {"ellipse": [0.0502, 0.0402], "rotation": 15.0},
                             "taper_deg": 5.0}}
-#: tissue time name -> tissue.relaxation (None: elastic); a relaxing tissue's log also has
-#: a muscle activation column (docs/model.md section 15)
-TISSUE_TIMES = {"elastic": None,
-                "QLV, activation": {"fractions": [0.3, 0.2], "times_s": [0.02, 0.5]}}
+#: tissue time name -> (tissue.relaxation or None, whether the log has a muscle activation
+#: column) (docs/model.md section 15)
+TISSUE_TIMES = {"elastic": (None, False),
+                "activation": (None, True),
+                "QLV, activation": ({"fractions": [0.3, 0.2], "times_s": [0.02, 0.5]}, True)}
 #: patch gap name -> tissue.continuum.patch_gap (None: the default)
 PATCH_GAPS = {"default": None, "0": 0.0}
 #: samples of the composition log
@@ -155,8 +156,9 @@ class Combination:
         if LIMBS[self.limb] is not None:
             del raw["geometry"]["radius"]
             raw["geometry"].update(LIMBS[self.limb])
-        if TISSUE_TIMES[self.tissue_time] is not None:
-            tissue["relaxation"] = TISSUE_TIMES[self.tissue_time]
+        relaxation = TISSUE_TIMES[self.tissue_time][0]
+        if relaxation is not None:
+            tissue["relaxation"] = relaxation
         return raw
 
     def cells(self) -> tuple:
@@ -238,7 +240,7 @@ def run_combination(comb: Combination, folder=None, *, cache_dir=None) -> Outcom
         cfg_path.write_text(yaml.safe_dump(comb.config()))
         log = folder / "composition_log.csv"
         data, header = composition_log(), "time,Fx,Fy,Fz,Mx,My,Mz"
-        if TISSUE_TIMES[comb.tissue_time] is not None:      # the muscle contracts, then rests
+        if TISSUE_TIMES[comb.tissue_time][1]:               # the muscle contracts, then rests
             act = np.clip(np.sin(np.linspace(0.0, np.pi, len(data))) * 1.2, 0.0, 1.0)
             data, header = np.column_stack([data, act]), header + ",activation"
         np.savetxt(log, data, delimiter=",", header=header, comments="", fmt="%.9g")

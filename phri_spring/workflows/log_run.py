@@ -104,6 +104,13 @@ class LogRun:
         return iter_wrench_log(self.log, self.columns, group=self.group,
                                wanted=LOG_COLUMNS + OPTIONAL_LOG_COLUMNS, **size)
 
+    def has_activation(self) -> bool:
+        """Whether the log carries the optional muscle activation column (reads its first
+        rows)."""
+        for ch in self.chunks(1):
+            return ch.activation is not None
+        return False
+
     def count(self) -> Optional[int]:
         """Rows of the log (in the group read), best effort: for progress only."""
         return count_rows(self.log, self.group, columns=self.columns)

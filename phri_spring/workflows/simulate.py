@@ -30,7 +30,7 @@ from ..io.config.tolerance import curve_option
 from ..io.logs import prefetch, table_format
 from ..physics.contact.no_equilibrium import arm_radius
 from ..physics.contact.solver import FactorCache
-from .common import cuff_wrench, history_model, model_from_config
+from .common import cuff_wrench, history_model, model_from_config, refuse_activation
 from ..io.memory.budget import plan_stream
 from .plots.maxpool import MaxPool
 from .columns.band import has_band
@@ -249,6 +249,8 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     rows = plan_stream(cfg, arm, chunk_rows, output_format=run.out_fmt, shear=shear,
                        plot=isinstance(on_chunk, MaxPool), log=log, columns=run.columns,
                        group=run.group, cache_dir=cache_dir)
+    if arm == "coupled" and cfg.continuum_law != "linear" and run.has_activation():
+        refuse_activation(cfg, arm)   # before minutes of identification
     model = model_from_config(cfg, arm, cache_dir=cache_dir)
 
     mean_lc = _window_mean(run, rows) if base.kind in ("first", "window") else None

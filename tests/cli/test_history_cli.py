@@ -136,3 +136,52 @@ def test_relaxation_shows_after_a_load_step(tmp_path):
     assert np.abs(Q[60] - Q[-1]).max() > 1e-2               # relaxing: still moving
     # the total force along the load balances the same wrench in both (equilibrium)
     assert np.isfinite(Q).all()
+
+
+@pytest.mark.parametrize("case", ["coupled", "friction", "friction, stiffening"])
+def test_activation_along_a_path_is_a_stiffer_tissue(tmp_path, case):
+    """A held activation a is the tissue with its stiffness times s = 1 + (c - 1) a: on the
+    coupled arm the layer's Young's modulus (a linear layer's every stiffness scales with
+    it), on the spring arm with friction the tissue stiffness (the exponential law's k0,
+    its rate kept); a = 0 is the arm without the column (docs/model.md section 15.2)."""
+    E, k, c, a = 3.0e4, 414.0, 2.0, 0.4
+    s = 1 + (c - 1) * a
+    raw = harmony_dict()
+    raw["tissue"]["activation_factor"] = c
+    if case == "coupled":
+        raw["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": E}
+        arm = "coupled"
+    else:
+        raw["tissue"].update(stiffness=k, basis="indenter", indenter_diameter=0.009)
+        raw.setdefault("interface", {})["friction_coefficient"] = 0.5
+        if case.endswith("stiffening"):
+            raw["tissue"].update(law="exponential", stiffening=115.0)
+        arm = "compliant"
+    act = tmp_path / "act.yaml"
+    act.write_text(yaml.safe_dump(raw))
+    if case == "coupled":
+        raw["tissue"]["continuum"]["young_modulus"] = E * s
+    else:
+        raw["tissue"]["stiffness"] = k * s
+    stiff = tmp_path / "stiff.yaml"
+    stiff.write_text(yaml.safe_dump(raw))
+    common = ("--arm", arm, "--shear")
+    outs = {}
+    for name, cfg, column in [("act", act, np.full(200, a)), ("stiff", stiff, None),
+                              ("zero", act, np.zeros(200)), ("plain", act, None)]:
+        log = _log(tmp_path / f"{name}.csv", m=200, activation=column)
+        r = _run("simulate", cfg, log, "-o", tmp_path / f"o_{name}.csv", *common)
+        assert r.exit_code == 0, r.output
+        outs[name] = pd.read_csv(tmp_path / f"o_{name}.csv")
+    labels = [c for c in outs["stiff"].columns if c[0] in "ABC" and c[1:].isdigit()]
+    cols = labels + [c for c in outs["stiff"].columns if c.endswith("_N") and c[0] in "ABC"]
+    assert len(cols) == 21 * 6                       # normal, 2 shear, 3 resultant
+    peak = np.nanmax(np.abs(outs["stiff"][cols].to_numpy()))
+    ok = outs["stiff"]["converged"].to_numpy(dtype=bool)
+    assert ok.mean() > 0.9
+    np.testing.assert_array_equal(outs["act"]["converged"].to_numpy(dtype=bool), ok)
+    # the two tissues' stiffnesses agree to round-off; the contact path can carry that on,
+    # never beyond a tiny share of the peak
+    np.testing.assert_allclose(outs["act"][cols][ok], outs["stiff"][cols][ok], rtol=0,
+                               atol=1e-4 * peak)
+    np.testing.assert_allclose(outs["zero"][cols], outs["plain"][cols], rtol=0, atol=2e-6)

@@ -89,7 +89,10 @@ def _bonded_normal_sum(model, W):
     """Sum of the normal forces [N] the model gives wrenches W (m, 6) with bonded ties."""
     from .solver import solve
 
-    # bonded ties everywhere: the coupled arm without friction would run its lift-off cone
+    # bonded ties everywhere: the coupled arm without friction would run its lift-off cone;
+    # a model stiffened by activation is estimated on its unactivated layer (the capacity's
+    # normal forces move only through the cuff's share of the compliance)
+    model = getattr(model, "base", model)
     changes = {"friction_coefficient": None}
     if hasattr(model, "lift_off"):
         changes["lift_off"] = False

@@ -16,7 +16,7 @@ from .active_set import ContactSystem, FactorCache
 from .solution import Solution
 
 __all__ = ["HUGE", "DIRECT_ROWS", "make_system", "nonlinear_finish", "solve_direct",
-           "solve_friction"]
+           "solve_friction", "friction_solution"]
 
 #: a cuff displacement beyond this [m, rad] is no answer (an absurd input: forces overflow)
 HUGE = 1e100
@@ -82,9 +82,16 @@ def solve_friction(model, W, single: bool, cache: FactorCache | None,
     u, P, cls, solves, conv, end = solve_path(form, r, cache.path_state if state is None
                                               else state, cache.path_maps)
     cache.path_state = end
-    conv &= finite
-    n, d = form.n, form.d
-    Pe = P.reshape(len(W), n, d)
+    return friction_solution(model, u, P, cls, solves, conv & finite, single)
+
+
+def friction_solution(model, u, P, cls, solves, conv, single: bool) -> Solution:
+    """The :class:`Solution` of a path solved by
+    :func:`~phri_spring.physics.friction.path.solve_path`: u (m, 6), patch forces P (m, n d),
+    states ``cls`` (m, n), linear solves and convergence (m,); NaN where not converged."""
+    n = model.n
+    d = P.shape[1] // n
+    Pe = P.reshape(len(u), n, d)
     normal = Pe[:, :, 0].copy()
     tangential = Pe[:, :, 1:3].copy()
     moments = Pe[:, :, 3:6].copy() if d == 6 else None

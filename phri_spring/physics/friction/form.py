@@ -112,18 +112,22 @@ class ElementArrays:
         self.Tt3 = Tt3
 
 
-def interface_form(model) -> InterfaceForm:
+def interface_form(model, like: InterfaceForm | None = None) -> InterfaceForm:
     """The compliance form of a spring model with ``friction_coefficient`` set, or of a
-    linear coupled model (:func:`interface_mu`)."""
+    linear coupled model (:func:`interface_mu`); ``like``: the form of a spring model on the
+    same geometry, whose map T is taken instead of made again."""
     mu = float(interface_mu(model))
     if hasattr(model, "K_t"):        # the coupled model: already in this form
         return InterfaceForm(n=model.n, d=model.dofs, C=model.C, C_skin=model.C_t, T=model.T,
                              delta=model.delta, W_pre=model.W_pre, mu=mu, diagonal=False)
     g = model.geometry
     n = g.n
-    B = element_jacobians(g.points)                                   # (n, 3, 6)
-    T = np.stack([g.b, np.einsum("ei,eij->ej", g.meridian, B),
-                  np.einsum("ei,eij->ej", g.circumferential, B)], axis=1).reshape(3 * n, 6)
+    if like is not None and like.diagonal and like.n == n:
+        T = like.T
+    else:
+        B = element_jacobians(g.points)                               # (n, 3, 6)
+        T = np.stack([g.b, np.einsum("ei,eij->ej", g.meridian, B),
+                      np.einsum("ei,eij->ej", g.circumferential, B)], axis=1).reshape(3 * n, 6)
     comp = np.stack([1.0 / model.k, 1.0 / model.k_shear, 1.0 / model.k_shear], axis=1).ravel()
     delta = np.zeros((n, 3))
     delta[:, 0] = model.delta0

@@ -1,0 +1,173 @@
+"""Muscle activation along a loading path: the coupled arm's continuum layer, and the spring
+arms with friction, stiffened sample by sample.
+
+docs/model.md section 15.2. A linear elastic layer whose moduli (Young's modulus, at a fixed
+Poisson ratio) are scaled by s has every stiffness scaled by s: its condensed stiffness
+K_t becomes s K_t, its compliance C_t / s, and the traction integral a patch reports
+(N_out q, linear in the moduli too) s N_out. With the activation a of a sample,
+s = 1 + (c - 1) a (:func:`~phri_spring.physics.history.model.activation_scale`), so each
+sample is the coupled model of section 10 with
+
+    C(s) = C_t / s + C_c,     delta(s) = C(s) P0,
+
+C_c the cuff's compliance (unchanged: activation stiffens the tissue, not the cuff) and P0
+the strap's patch forces at zero wrench (the hoop preload is a force: the strap presses
+as hard on a contracted muscle). The reported normal force N_out C_t P does not depend
+on s. The interface's path state (which patches are released, stuck or sliding, and
+their slip) is carried from sample to sample as it is without activation: a change of
+stiffness moves the skin under a stuck patch, not the patch's tie. Consecutive samples
+with the same activation share one compliance form and are solved together.
+
+The spring arms with ``interface.friction_coefficient`` run along the same path solver
+(section 12); their tissue springs stiffened by s are the spring model built with the
+tissue stiffness s k_t (``scaled``: the cuff unchanged, the exponential law's k0 scaled
+and its rate kept, so that every tissue force is s times the unactivated one).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ...errors import ModelInputError
+from ..contact.paths import HUGE, friction_solution
+from ..contact.solution import Solution
+from ..friction.form import InterfaceForm, initial_state, interface_form
+from ..friction.states import interface_mu
+from ..friction.path import solve_path
+from .model import activation_scale
+
+__all__ = ["PathActivation"]
+
+#: compliance forms kept per activation scale (a log with a few activation levels reuses
+#: them; a continuous channel makes one per sample and keeps the last few)
+_FORMS = 32
+
+
+class PathActivation:
+    """A model solved along its interface's loading path, its tissue stiffened by a
+    per-sample activation.
+
+    Parameters
+    ----------
+    base : CoupledModel or SpringModel
+        The linear coupled arm (docs/model.md section 10), hoop or handles strap, with or
+        without ``friction_coefficient``; or (with ``scaled``) a spring arm with
+        ``friction_coefficient``.
+    activation_factor : float
+        c of s = 1 + (c - 1) a [-], > 0.
+    scaled : callable, optional
+        s -> the model with its tissue stiffened by s (needed for a spring arm; the
+        coupled arm's layer is scaled here).
+
+    Raises
+    ------
+    ModelInputError
+        A model that is not the linear coupled arm, or a factor that is not a finite
+        number > 0.
+    """
+
+    has_history = True
+
+    def __init__(self, base, activation_factor: float = 1.0, scaled=None):
+        if scaled is None and (not hasattr(base, "C_t") or hasattr(base, "solve_wrenches")):
+            raise ModelInputError("activation on the coupled arm needs its linear continuum "
+                                  "layer (the hyperelastic layers' reduced models are built "
+                                  "for one modulus)", "activation_factor")
+        if not (np.isfinite(activation_factor) and activation_factor > 0):
+            raise ModelInputError("activation_factor: expected a finite number > 0",
+                                  "activation_factor")
+        if interface_mu(base) is None:
+            raise ModelInputError("activation along a loading path: expected the coupled "
+                                  "arm's lift-off interface or a friction coefficient (bonded "
+                                  "ties everywhere is a legacy mode)", "activation_factor")
+        self.base = base
+        self.activation_factor = float(activation_factor)
+        self._scaled = scaled
+        self._form = interface_form(base)
+        if scaled is None:
+            n, d = base.n, base.dofs
+            self._C_cuff = np.diag(base.C - base.C_t).copy()   # the cuff's, diagonal
+            # the strap's patch forces at zero wrench (0 for the handles strap, whose
+            # preload is the wrench W_pre alone)
+            self._P0 = (np.linalg.solve(base.C, base.delta) if np.any(base.delta)
+                        else np.zeros(n * d))
+        self._forms: dict[float, tuple[InterfaceForm, dict]] = {}
+        self.state = None
+
+    def __getattr__(self, name):
+        if name == "base":
+            raise AttributeError(name)
+        return getattr(self.base, name)
+
+    def reset(self) -> None:
+        """Back to the strap's state at zero wrench."""
+        self.state = None
+
+    def form(self, s: float) -> tuple[InterfaceForm, dict]:
+        """The compliance form of the layer stiffened by ``s`` and its factor cache."""
+        hit = self._forms.get(s)
+        if hit is None:
+            f = self._form
+            if s == 1.0:
+                form = f
+            elif self._scaled is not None:
+                form = interface_form(self._scaled(s), like=f)
+            else:
+                C_skin = self.base.C_t / s
+                C = C_skin + np.diag(self._C_cuff)
+                form = InterfaceForm(n=f.n, d=f.d, C=C, C_skin=C_skin, T=f.T,
+                                     delta=C @ self._P0, W_pre=f.W_pre, mu=f.mu,
+                                     diagonal=False)
+            if len(self._forms) >= _FORMS:
+                self._forms.pop(next(iter(self._forms)))
+            hit = self._forms[s] = (form, {})
+        return hit
+
+    def solve_log(self, wrench, times=None, activation=None, *, max_iterations: int = 100,
+                  state=None, keep: bool = True) -> Solution:
+        """Solve the samples of a log in order with their activations (None: 0).
+
+        ``times`` is accepted for the interface of
+        :class:`~phri_spring.physics.history.model.HistoryModel` and not used: the
+        elastic layer has no memory of time, only the interface's path.
+        """
+        W = np.atleast_2d(np.asarray(wrench, dtype=float))
+        m = len(W)
+        if W.shape != (m, 6) or not np.isfinite(W).all():
+            raise ValueError(f"wrench: expected finite numbers of shape (m, 6), got {W.shape}")
+        s = (np.ones(m) if activation is None
+             else activation_scale(np.asarray(activation, dtype=float), self.activation_factor))
+        if s.shape != (m,) or not (np.isfinite(s).all() and (s > 0).all()):
+            raise ValueError(f"activation: expected {m} values giving a scale > 0")
+        st = self.state if state is None else state
+        st = initial_state(self._form) if st is None else st
+        with np.errstate(over="ignore", invalid="ignore"):
+            r = W + self.base.W_pre
+        finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= HUGE)
+        r = np.where(finite[:, None], r, self.base.W_pre)
+        n, d = self._form.n, self._form.d
+        u = np.empty((m, 6))
+        P = np.empty((m, n * d))
+        cls = np.empty((m, n), dtype=np.int8)
+        solves = np.empty(m, dtype=np.int64)
+        conv = np.empty(m, dtype=bool)
+        # runs of equal activation: one form, one call along the path
+        edges = np.flatnonzero(np.diff(s)) + 1
+        for i, e in zip(np.r_[0, edges], np.r_[edges, m]):
+            form, cache = self.form(float(s[i]))
+            u[i:e], P[i:e], cls[i:e], solves[i:e], conv[i:e], st = solve_path(
+                form, r[i:e], st, cache)
+        if keep:
+            self.state = st
+        return friction_solution(self.base, u, P, cls, solves, conv & finite, single=False)
+
+    def solve_rested(self, wrench, activation=None, *, max_iterations: int = 100) -> Solution:
+        """The rows as a loading path from the strap's state at zero wrench (what the coupled
+        arm answers for a static question), without touching the model's path state."""
+        return self.solve_log(wrench, None, activation, max_iterations=max_iterations,
+                              state=initial_state(self._form), keep=False)
+
+    def rested_forces(self, wrench, activation: float = 0.0, *, max_iterations: int = 100):
+        """Reported normal forces (n,) [N] under ``wrench`` (6,) from the strap's state."""
+        return self.solve_rested(np.atleast_2d(wrench), [activation],
+                                 max_iterations=max_iterations).forces[0]

@@ -1,0 +1,131 @@
+"""Muscle activation on the coupled arm (docs/model.md section 15.2).
+
+The references are coupled models built independently with the tissue's stiffness scaled
+by s = 1 + (c - 1) a (K_t -> s K_t, the traction output N -> s N), solved by the coupled
+arm's own path solver: a log at constant activation must be that model's answer; a log
+whose activation varies must be, sample by sample, the scaled model of that sample solved
+from the path state the sample before left; a = 0 is the model without activation.
+"""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from support.coupled_reference import kernel_K
+from support.helpers import check_friction_laws
+from phri_spring.errors import ModelInputError
+from phri_spring.physics.contact.active_set import FactorCache
+from phri_spring.physics.contact.paths import solve_friction
+from phri_spring.physics.contact.solver import solve
+from phri_spring.physics.continuum.coupled import build_coupled_model
+from phri_spring.physics.cuff.geometry import cuff_geometry
+from phri_spring.physics.history.path import PathActivation
+from phri_spring.synthetic.wrench import smooth_random_log
+
+
+def _geometry():
+    return cuff_geometry([-0.025, 0.0, 0.025], 0.045, 0.025, 75.0, 35.0, 7)
+
+
+def _normal_output(g, K, dofs):
+    """N_e = n_e^T K_t[e, :]: a traction-like output coupling every patch (not the default)."""
+    N = np.zeros((g.n, dofs * g.n))
+    for e in range(g.n):
+        N[e] = g.normals[e] @ K[dofs * e:dofs * e + 3]
+    return N
+
+
+def _model(s=1.0, dofs=3, k_c=2e5, strap="hoop", mu=None, output=False):
+    g = _geometry()
+    K = kernel_K(g, dofs=dofs)
+    N = _normal_output(g, K, dofs) if output else None
+    return build_coupled_model(g, s * K, k_c, strap_model=strap, strap_tension=20.0,
+                               normal_output=None if N is None else s * N,
+                               friction_coefficient=mu)
+
+
+def _log(m, seed, scale=1.0):
+    _, W = smooth_random_log(m, seed=seed)
+    return W * scale   # pushes up to about 60 N: patches lift off and come back
+
+
+CASES = [dict(), dict(dofs=6), dict(k_c=np.inf), dict(strap="handles"), dict(mu=0.6),
+         dict(output=True)]
+#: the handles strap holds less: smaller pushes keep every sample in equilibrium (after a
+#: sample with none, two solvers' paths may part on round-off)
+SCALE = {"handles": 0.3}
+
+
+@pytest.mark.parametrize("case", CASES, ids=lambda c: ",".join(map(str, c.items())) or "hoop")
+def test_constant_activation_is_the_stiffened_model(case):
+    c, a = 2.5, 0.6
+    W = _log(400, 1, SCALE.get(case.get("strap"), 1.0))
+    sol = PathActivation(_model(**case), c).solve_log(W, None, np.full(len(W), a))
+    ref = solve(_model(1.0 + (c - 1.0) * a, **case), W)
+    ok = ref.converged
+    np.testing.assert_array_equal(sol.converged, ok)   # no answer where the reference has none
+    assert ok.mean() > 0.8
+    if case.get("dofs", 3) == 3:                 # (tied rotations hold 6-dof patches on)
+        assert (~sol.contact).any()              # the log lifts patches off
+    scale = np.abs(ref.forces[ok]).max()
+    np.testing.assert_allclose(sol.forces[ok], ref.forces[ok], rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(sol.tangential[ok], ref.tangential[ok], rtol=0, atol=1e-9 * scale)
+
+
+@pytest.mark.parametrize("case", CASES[:3] + CASES[4:5],
+                         ids=lambda c: ",".join(map(str, c.items())) or "hoop")
+def test_varying_activation_follows_the_path(case):
+    c = 2.0
+    W = _log(300, 2)
+    a = np.clip(0.5 + 0.5 * np.sin(np.arange(len(W)) / 17.0), 0, 1)
+    a[100:140] = 0.3                              # a held level: one form for the run
+    sol = PathActivation(_model(**case), c).solve_log(W, None, a)
+    # the reference: sample by sample, a model built for that sample's scale, the path
+    # state handed on
+    state = None
+    for k in range(len(W)):
+        model = _model(1.0 + (c - 1.0) * a[k], **case)
+        cache = FactorCache(0)
+        cache.path_state = state
+        ref = solve_friction(model, W[k:k + 1], False, cache)
+        state = cache.path_state
+        np.testing.assert_allclose(sol.forces[k], ref.forces[0], rtol=0, atol=1e-8)
+        np.testing.assert_allclose(sol.tangential[k], ref.tangential[0], rtol=0, atol=1e-8)
+    mu = case.get("mu", 10.0)
+    check_friction_laws(_model(**case), W, sol, mu)   # balance and cone hold at every sample
+
+
+def test_zero_activation_changes_nothing_and_chunks_continue():
+    W = _log(500, 3)
+    base = _model()
+    ref = solve(base, W)
+    model = PathActivation(base, 2.0)
+    a = np.zeros(len(W))
+    first = model.solve_log(W[:230], None, a[:230])
+    second = model.solve_log(W[230:], None, a[230:])   # the path state carried
+    forces = np.vstack([first.forces, second.forces])
+    np.testing.assert_allclose(forces, ref.forces, rtol=0,
+                               atol=1e-9 * np.nanmax(np.abs(ref.forces)), equal_nan=True)
+
+
+@settings(max_examples=15, deadline=None)
+@given(st.floats(0.0, 1.0), st.floats(1.0, 4.0), st.integers(0, 10_000))
+def test_a_stiffer_layer_under_a_rigid_cuff_carries_the_same_forces(a, c, seed):
+    # with a rigid cuff, stiffening every tissue spring by one factor scales the motions,
+    # not the forces (the program's objective scales by 1/s, its constraints stay)
+    W = _log(60, seed, scale=0.5)
+    base = _model(k_c=np.inf)
+    act = PathActivation(base, c).solve_log(W, None, np.full(len(W), a))
+    ref = solve(base, W)
+    np.testing.assert_allclose(act.forces, ref.forces, rtol=0,
+                               atol=1e-8 * (np.abs(ref.forces).max() + 1.0))
+
+
+def test_bad_factor_and_the_bonded_legacy_mode_are_refused():
+    with pytest.raises(ModelInputError, match="activation_factor"):
+        PathActivation(_model(), float("nan"))
+    g = _geometry()
+    bonded = build_coupled_model(g, kernel_K(g), 2e5, lift_off=False)
+    with pytest.raises(ModelInputError, match="lift-off"):
+        PathActivation(bonded, 2.0)
