@@ -188,7 +188,8 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
                 f"({100 * summary.max_pain_ratio:.3g}% of the pain threshold)")
     else:
         peak = "no converged sample, no peak pressure"
-    law = _law_clause(config, arm)
+    law = summary.law_text if getattr(summary, "law_text", None) is not None \
+        else _law_clause(config, arm)
     mu = summary.friction_coefficient
     contact = f", friction mu = {mu:g}" if mu is not None else ""
     if summary.max_strap_tension_n is not None:
@@ -208,10 +209,9 @@ def _law_clause(config, arm) -> str:
     for the coupled arm, that its continuum is linear when the config gives a nonlinear
     law; nothing for the linear law and the rigid arm."""
     from phri_spring.io.config import Config, load_config
-    from phri_spring.reports.tissue_law_text import arm_law_text, is_nonlinear
+    from phri_spring.workflows.simulate import law_clause
 
-    cfg = config if isinstance(config, Config) else load_config(config)
-    return f", {arm_law_text(cfg, arm)}" if arm != "rigid" and is_nonlinear(cfg) else ""
+    return law_clause(config if isinstance(config, Config) else load_config(config), arm)
 
 
 def no_answer_text(summary) -> str:

@@ -45,6 +45,9 @@ class SimulateSummary:
     labels: tuple
     #: the tissue law the model ran (``linear``, ``exponential``, ...; "" for no tissue)
     tissue_law: str = ""
+    #: the summary's clause on the tissue law (``, exponential tissue law (...)``), made where
+    #: the config is at hand; None: not made (the command line makes it from the config)
+    law_text: Optional[str] = None
     #: shares of the force passed to the skin (magnitudes summed over elements and samples)
     #: by the normal forces in contact, the tangential forces in contact and the lifted
     #: elements' bonded springs, each in [0, 1], adding up to one (docs/model.md section

@@ -32,7 +32,6 @@ from .common import cuff_wrench
 from .columns.band import BAND_COLUMN_TYPES, band_extras
 from .columns.no_answer import NO_EQUILIBRIUM_COLUMN_TYPES, no_equilibrium_extras
 from .columns.shear import shear_columns, shear_extras
-from .columns.tolerance import TOLERANCE_COLUMN_TYPES
 
 __all__ = ["EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES", "Baseline", "parse_baseline", "window_mask",
            "baseline_forces", "check_activation", "as_config", "per_sample_extras",
@@ -230,7 +229,9 @@ def extra_arrow_types(shear_labels=(), moments: bool = False, friction: bool = F
     out.update({name: pa.float64() for name in shear_columns(shear_labels, moments)})
     if friction:   # why a sample has no answer (physics/no_equilibrium.py)
         out.update({name: types[kind] for name, kind in NO_EQUILIBRIUM_COLUMN_TYPES})
-    if tolerance:  # the dose against a tolerance curve (docs/tolerance.md)
+    if tolerance:  # the dose against a tolerance curve (docs/tolerance.md), loaded on demand
+        from .columns.tolerance import TOLERANCE_COLUMN_TYPES
+
         out.update({name: types[kind] for name, kind in TOLERANCE_COLUMN_TYPES})
     if band:       # the elastic band strap's tension (docs/model.md section 3.1)
         out.update({name: types[kind] for name, kind in BAND_COLUMN_TYPES})

@@ -32,11 +32,9 @@ from ..physics.contact.no_equilibrium import arm_radius
 from ..physics.contact.solver import FactorCache
 from .common import cuff_wrench, history_model, model_from_config, refuse_activation
 from ..io.memory.budget import plan_stream
-from .plots.maxpool import MaxPool
 from .columns.band import has_band
 from .columns.no_answer import NoAnswerTally
 from .columns.shear import element_loads, has_patch_moments, shear_columns
-from .columns.tolerance import ExposureTally, exposure_table_path, write_exposure_table
 from .log_run import LogRun, SimulateSummary, SummaryAccumulator, open_log_run
 from .pipeline import (EXTRA_COLUMN_TYPES, EXTRA_COLUMNS, Baseline, as_config, baseline_forces,
                        check_activation, extra_arrow_types, parse_baseline, per_sample_extras,
@@ -153,6 +151,8 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
     extras, idx = ch.extras()
     sol = ch.solution
     if tolerance is not None:
+        from .columns.tolerance import ExposureTally   # on demand: only with a curve
+
         extras.update(ExposureTally(model, tolerance).add(t, sol.forces))
     return SimulationResult(time=t, labels=tuple(model.labels), forces=ch.forces,
                             absolute_forces=sol.forces, baseline_forces=f_base,
@@ -162,6 +162,25 @@ def simulate(config, wrench_lc, *, time=None, arm: str = "compliant",
                             pain_ratio=extras["peak_pressure_to_pain_threshold"], extras=extras)
 
 
+
+
+def law_clause(cfg, arm: str) -> str:
+    """The summary's clause on the tissue law: ``, exponential tissue law (beta 150 1/m)``;
+    for the coupled arm, that its continuum is linear when the config gives a nonlinear
+    law; nothing for the linear law and the rigid arm."""
+    from ..reports.tissue_law_text import arm_law_text, is_nonlinear
+
+    return f", {arm_law_text(cfg, arm)}" if arm != "rigid" and is_nonlinear(cfg) else ""
+
+
+def _plots(on_chunk) -> bool:
+    """Whether ``on_chunk`` draws the run (a MaxPool), without loading the plots' module for
+    a run that has none."""
+    if on_chunk is None:
+        return False
+    from .plots.maxpool import MaxPool
+
+    return isinstance(on_chunk, MaxPool)
 
 
 def _window_mean(run: LogRun, chunk_rows: int) -> np.ndarray:
@@ -242,12 +261,15 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     cfg, base = run.cfg, run.baseline
     tolerance = curve_option(tolerance, cfg)
     if tolerance is not None:
+        # the dose's columns and table load on demand: a run without a curve skips them
+        from .columns.tolerance import ExposureTally, exposure_table_path, write_exposure_table
+
         check_output_path(exposure_table_path(output), [log, cfg.path, output,
                                                         *cfg.stiffness_files])
     # rows per chunk: the hint, capped so that a fine mesh's chunk stays about 32 MB, and
     # fewer when memory is short; a run that cannot fit is refused here, before any output
     rows = plan_stream(cfg, arm, chunk_rows, output_format=run.out_fmt, shear=shear,
-                       plot=isinstance(on_chunk, MaxPool), log=log, columns=run.columns,
+                       plot=_plots(on_chunk), log=log, columns=run.columns,
                        group=run.group, cache_dir=cache_dir)
     if arm == "coupled" and cfg.continuum_law != "linear" and run.has_activation():
         refuse_activation(cfg, arm)   # before minutes of identification
@@ -267,7 +289,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
     law = model.law
     tally = NoAnswerTally(arm_radius(model.geometry))
     dose = None if tolerance is None else ExposureTally(model, tolerance,
-                                                        binned=isinstance(on_chunk, MaxPool))
+                                                        binned=_plots(on_chunk))
     try:
         summary = _stream(run, model, chunks, f_base, decimals, progress, total, on_chunk, shear,
                           tally, dose)
@@ -275,6 +297,7 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
         table = None if dose is None else write_exposure_table(
             exposure_table_path(output), model.labels, dose.exposure)
         return dataclasses.replace(summary, tissue_law=law.name if law is not None else "",
+                                   law_text=law_clause(cfg, arm),
                                    friction_coefficient=model.friction_coefficient,
                                    no_answer_reasons=reasons, worst_no_answer=worst,
                                    exposure=None if dose is None else dose.exposure,

@@ -79,7 +79,7 @@ def geometry_sections(g, n_rows: int, path):
     :mod:`~phri_spring.physics.limb.sections` object per row, and as radius each row's
     equal-perimeter radius. One-line ConfigErrors naming the key.
     """
-    from ...physics.limb.sections import SectionError, check_rho_range, check_taper
+    from ...physics.limb.bounds import SectionError, check_rho_range, check_taper
 
     try:
         taper = check_taper(g.taper_deg)

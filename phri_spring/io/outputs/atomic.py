@@ -15,7 +15,6 @@ from __future__ import annotations
 import errno
 import os
 import shutil
-import secrets
 import stat
 from contextlib import contextmanager
 from pathlib import Path
@@ -199,7 +198,7 @@ def _temporary_names(parent, prefix: str, suffix: str):
     it (removing a path not made yet does nothing).
     """
     for _ in range(100):
-        yield Path(parent) / f"{prefix}{os.getpid()}-{secrets.token_hex(6)}{suffix}"
+        yield Path(parent) / f"{prefix}{os.getpid()}-{os.urandom(6).hex()}{suffix}"
     raise FileExistsError(errno.EEXIST, "no free temporary name", str(parent))
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..springs.newton import solve_newton
 from .active_set import ContactSystem, FactorCache
 from .solution import Solution
 
@@ -33,6 +32,8 @@ def nonlinear_finish(model, r, u, its, conv, max_iterations):
     """For a spring model with a nonlinear law: Newton from the linear model's answer u, in
     place (docs/model.md section 11); returns the compression g (m, n) and the element
     forces (m, n) the iteration converged to."""
+    from ..springs.newton import solve_newton   # on demand: the linear laws never need it
+
     f = np.empty((len(r), model.n))
     u[:], itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations,
                                         forces_out=f)

@@ -26,7 +26,6 @@ from __future__ import annotations
 import numpy as np
 
 from .spd6 import SYM6_FULL, SYM6_UPPER, spd_solve_batched as _spd_solve_batched
-from ..springs.newton import solve_newton_warm
 from .solution import Solution
 from ..friction.states import interface_mu
 from ..springs.outputs import (compression, energy, forces_from_compression, normal_forces,
@@ -300,6 +299,8 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
             mb = e - s
             qb = forces[s:e]  # indicators are computed in place, then turned into forces
             if warm_newton:
+                from ..springs.newton import solve_newton_warm   # nonlinear laws only
+
                 ub, fb, itb, cb = solve_newton_warm(model, system, rb, carry, max_iterations)
                 np.matmul(ub, model.bT, out=qb)
                 qb += model.delta0
