@@ -63,17 +63,17 @@ class Prony:
         g = np.atleast_1d(np.asarray(self.fractions, dtype=float))
         tau = np.atleast_1d(np.asarray(self.times_s, dtype=float))
         if g.ndim != 1 or tau.ndim != 1 or len(g) != len(tau):
-            raise ModelInputError("relaxation: expected as many fractions as times_s",
-                                  "relaxation")
+            raise ModelInputError(f"relaxation: expected as many fractions as times_s, got "
+                                  f"{g.size} and {tau.size}", "relaxation")
         if not (np.isfinite(g).all() and (g >= 0).all()):
-            raise ModelInputError("relaxation.fractions: expected finite values >= 0",
+            raise ModelInputError("relaxation.fractions: expected finite numbers >= 0",
                                   "relaxation")
         if not float(g.sum()) < 1.0:
             raise ModelInputError(f"relaxation.fractions: expected a sum < 1 (the relaxed "
                                   f"tissue keeps a stiffness), got {float(g.sum()):g}",
                                   "relaxation")
         if not (np.isfinite(tau).all() and (tau > 0).all()):
-            raise ModelInputError("relaxation.times_s: expected finite times > 0 s",
+            raise ModelInputError("relaxation.times_s: expected finite times > 0 [s]",
                                   "relaxation")
         object.__setattr__(self, "fractions", tuple(float(x) for x in g))
         object.__setattr__(self, "times_s", tuple(float(x) for x in tau))
