@@ -15,7 +15,7 @@ a dashboard gets a :class:`LiveSnapshot` per sample).
 A stream that carries a muscle activation (a CSV header's ``activation`` column,
 :attr:`~phri_spring.io.live.sources.LiveSource.has_activation`) is solved with the
 tissue's history from its first sample on, as ``phri simulate`` solves a log with that
-column (docs/model.md section 15.4): the tissue stiffness is scaled by 1 + (c - 1) a.
+column (docs/model.md section 15.2): the tissue stiffness is scaled by 1 + (c - 1) a.
 
 A ``first:SECONDS`` or ``window:T0:T1`` baseline is the mean wrench of the
 stream over that window: samples are held until the window has passed (a
