@@ -38,7 +38,7 @@ from ...physics.friction.states import interface_mu
 from ...physics.contact.solver import FactorCache
 from ...reports.tissue_law_text import arm_law_text
 from ...reports.uncertainty.report import monte_carlo_summary_line
-from ..common import cuff_wrench, model_from_config
+from ..common import cuff_wrench, history_model, model_from_config
 from ..compare.bands import compare_bands, write_compare_bands  # noqa: F401 - importable here
 from ..design.uncertainty import sobol_indices, study_uncertainty  # noqa: F401 - importable here
 from ..log_run import open_log_run
@@ -145,6 +145,9 @@ class MonteCarloStream:
             self.models = [model_from_config(c, arm) for c in cfgs]
         else:   # nothing this arm uses scatters: every draw's model is the config's own
             self.models = [model_from_config(cfg, arm)] * self.draws
+        if self._history and self.draws > 1 and self.models[0] is self.models[1]:
+            # a relaxing tissue remembers its draw's own samples: a model each
+            self.models = [model_from_config(cfg, arm) for _ in range(self.draws)]
         self.noise_sd = inputs.noise_sd
         self.block_samples = max(1, _CHUNK_ENTRIES // (self.draws * cfg.n_elements))
         self.not_converged = 0
@@ -165,17 +168,26 @@ class MonteCarloStream:
             self._paths[d] = FactorCache(64)
         return self._paths[d]
 
-    def block(self, number: int, wrench_lc, time=None):
+    @property
+    def _history(self) -> bool:
+        return getattr(self.models[0], "has_history", False)
+
+    def block(self, number: int, wrench_lc, time=None, activation=None):
         """Percentiles of block ``number`` (its samples in the load cell's units, (k, 6)).
 
         Returns the force percentiles, shape (3, k, n) [N], and those of the
-        peak pressure / pain threshold, shape (3, k) [-]. With a curve, ``time`` (k,)
-        [s] is needed and :attr:`dose` holds the block's dose percentiles.
+        peak pressure / pain threshold, shape (3, k) [-]. With a curve or a tissue with a
+        history (``tissue.relaxation``, an ``activation`` (k,) 0..1 as a log's column),
+        ``time`` (k,) [s] is needed, blocks come in log order and every draw carries its
+        own history; with a curve :attr:`dose` holds the block's dose percentiles.
         """
         cfg, n = self.cfg, self.cfg.n_elements
         w = np.atleast_2d(np.asarray(wrench_lc, dtype=float))
-        if self.exposures is not None and time is None:
-            raise ValueError("a stream with a tolerance curve needs each block's times")
+        if activation is not None and not self._history:   # as simulate does with the column
+            self.models = [history_model(m, cfg) for m in self.models]
+        if (self.exposures is not None or self._history) and time is None:
+            raise ValueError("a stream with a tolerance curve or a tissue history needs "
+                             "each block's times")
         F = np.empty((self.draws, len(w), n))
         R = np.empty((self.draws, len(w)))
         D = None if self.exposures is None else np.empty((self.draws, len(w)))
@@ -187,7 +199,7 @@ class MonteCarloStream:
             # a cache of its own: a draw's model is not the next draw's; with friction the
             # draw's cache also carries its loading path from block to block
             chunk = solve_chunk(self.models[d], cuff_wrench(cfg, wd), None,
-                                cfg.max_iterations, self._cache(d))
+                                cfg.max_iterations, self._cache(d), False, time, activation)
             F[d] = chunk.forces
             R[d] = chunk.extras()[0]["peak_pressure_to_pain_threshold"]
             self.not_converged += int((~chunk.solution.converged).sum())
@@ -203,28 +215,42 @@ class MonteCarloStream:
     def blocks(self, chunks):
         """Percentiles of a log read in chunks of any size.
 
-        ``chunks`` yields ``(time, wrench_lc)`` pairs, shapes (k,) and (k, 6);
+        ``chunks`` yields ``(time, wrench_lc)`` pairs, shapes (k,) and (k, 6), or
+        ``(time, wrench_lc, activation)`` with activation (k,) or None;
         yields ``(time, force percentiles, ratio percentiles)`` block by block
         (see :meth:`block`), holding at most one block of samples.
         """
-        times, wrenches, held, number = [], [], 0, 0
+        times, wrenches, acts, held, number = [], [], [], 0, 0
         k = self.block_samples
-        for t, w in chunks:
+        for chunk in chunks:
+            t, w = chunk[0], chunk[1]
+            a = chunk[2] if len(chunk) > 2 else None
             times.append(np.asarray(t, dtype=float))
             wrenches.append(np.atleast_2d(np.asarray(w, dtype=float)))
+            acts.append(None if a is None else np.asarray(a, dtype=float))
             held += len(times[-1])
             if held < k:
                 continue
-            t_all, w_all = np.concatenate(times), np.concatenate(wrenches)   # once a chunk
+            t_all, w_all, a_all = (np.concatenate(times), np.concatenate(wrenches),
+                                   _joined(acts, times))                  # once a chunk
             start = 0
             while held - start >= k:
                 tk = t_all[start:start + k]
-                yield (tk, *self.block(number, w_all[start:start + k], tk))
+                ak = None if a_all is None else a_all[start:start + k]
+                yield (tk, *self.block(number, w_all[start:start + k], tk, ak))
                 number, start = number + 1, start + k
             times, wrenches, held = [t_all[start:]], [w_all[start:]], held - start
+            acts = [None if a_all is None else a_all[start:]]
         if held:
             tk = np.concatenate(times)
-            yield (tk, *self.block(number, np.concatenate(wrenches), tk))
+            yield (tk, *self.block(number, np.concatenate(wrenches), tk, _joined(acts, times)))
+
+
+def _joined(acts, times):
+    """The activations of held chunks as one array (0 where a chunk had none), or None."""
+    if all(a is None for a in acts):
+        return None
+    return np.concatenate([np.zeros(len(t)) if a is None else a for a, t in zip(acts, times)])
 
 
 def dose_percentiles(doses, q) -> np.ndarray:
@@ -244,7 +270,8 @@ def dose_percentiles(doses, q) -> np.ndarray:
 
 
 def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str = "compliant",
-                inputs: Optional[UncertainInputs] = None) -> MonteCarloResult:
+                inputs: Optional[UncertainInputs] = None, time=None,
+                activation=None) -> MonteCarloResult:
     """Monte Carlo percentiles of the forces for every sample of a log.
 
     Parameters
@@ -261,6 +288,10 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
     arm : str
     inputs : UncertainInputs, optional
         Default: the tissue SD from the config's CSV, no other scatter.
+    time : array_like, shape (m,), optional
+        Sample times [s]: needed by a relaxing tissue (``tissue.relaxation``).
+    activation : array_like, shape (m,), optional
+        Muscle activation 0..1 of every sample (docs/model.md section 15.2).
 
     Returns
     -------
@@ -273,7 +304,9 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
     out_r = np.empty((3, m))
     for c, s in enumerate(range(0, m, mc.block_samples)):
         e = min(m, s + mc.block_samples)
-        out_f[:, s:e], out_r[:, s:e] = mc.block(c, w[s:e])
+        out_f[:, s:e], out_r[:, s:e] = mc.block(
+            c, w[s:e], None if time is None else np.asarray(time, dtype=float)[s:e],
+            None if activation is None else np.asarray(activation, dtype=float)[s:e])
     return MonteCarloResult(out_f, out_r, mc.draws, mc.not_converged, tuple(cfg.labels),
                             mc.perturbed, mc.tissue_law)
 
@@ -373,7 +406,7 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
     total = run.count() if progress is not None else None
     samples, peak, peak_time = 0, -math.inf, math.nan
     with run.writer(percentile_columns(cfg.labels), ratio) as writer:
-        chunks = ((ch.time, ch.wrench) for ch in run.chunks())
+        chunks = ((ch.time, ch.wrench, ch.activation) for ch in run.chunks())
         for time, f_pct, r_pct in mc.blocks(chunks):
             k = len(time)
             # (3, k, n) -> (k, n, 3): each element's p5, p50, p95 side by side
