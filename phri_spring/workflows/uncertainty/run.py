@@ -51,7 +51,7 @@ __all__ = ["UncertainInputs", "uncertain_inputs", "monte_carlo", "MonteCarloResu
            "MonteCarloStream", "MonteCarloRun", "simulate_uncertainty_file",
            "percentile_columns", "RATIO_COLUMNS", "study_uncertainty", "PERCENTILES",
            "write_monte_carlo", "sobol_indices", "compare_bands", "write_compare_bands",
-           "parse_sd", "run_cli", "DOSE_COLUMNS"]
+           "parse_sd", "run_cli", "DOSE_COLUMNS", "dose_percentiles"]
 
 #: columns of the percentile table after the forces: peak pressure / pain threshold [-]
 RATIO_COLUMNS = tuple(f"peak_pressure_to_pain_threshold_p{q:g}" for q in PERCENTILES)
