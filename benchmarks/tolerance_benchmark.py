@@ -5,9 +5,12 @@ Usage (from the repository root, after ``pip install -e .``):
 
     python -m benchmarks.tolerance_benchmark                  # 5 pairs, CSV output
     python -m benchmarks.tolerance_benchmark --repeats 9 --output-format parquet
+    python -m benchmarks.tolerance_benchmark --uncertainty 20 --samples 60000
 
 The log is the synthetic one-hour log of ``benchmarks/common.py`` (``make_log``: 100 Hz,
-360,000 samples, fixed seed), written to a temporary folder.
+360,000 samples, fixed seed; ``--samples`` another length), written to a temporary folder.
+``--uncertainty N`` times ``simulate --uncertainty N`` instead (tissue SD 10 %, force
+noise 0.5 N), where every draw follows its own dose.
 """
 
 from __future__ import annotations
@@ -28,13 +31,18 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--output-format", choices=("csv", "parquet"), default="csv")
     ap.add_argument("--curve", default="linder_ganz_2006")
+    ap.add_argument("--samples", type=int, default=360_000)
+    ap.add_argument("--uncertainty", type=int, default=None, metavar="N")
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         log = Path(tmp) / "hour.parquet"
-        make_log(log, 360_000, seed=1)
+        make_log(log, a.samples, seed=1)
         out = Path(tmp) / f"forces.{a.output_format}"
         base = [sys.executable, "-m", "phri_cli.main", "simulate", str(CONFIG), str(log),
                 "-o", str(out), "-q"]
+        if a.uncertainty is not None:
+            base += ["--uncertainty", str(a.uncertainty), "--uncertainty-sd",
+                     "tissue=0.1,force=0.5"]
         cmds = {"default": base, "tolerance": base + ["--tolerance", a.curve]}
         times = {k: [] for k in cmds}
         for _ in range(a.repeats + 1):              # the first round warms the caches

@@ -60,8 +60,9 @@ from ._common import ArmChoice, info, progress_enabled
 @click.option("--max-samples", type=click.IntRange(min=1), default=None, metavar="N",
               help="Stop after N samples.")
 @click.option("--column", "columns", multiple=True, metavar="NAME=STREAM_NAME",
-              help="Map a spec column (time, Fx, ..., Mz) to the header's or LSL channel's "
-                   "name; overrides load_cell.columns.")
+              help="Map a spec column (time, Fx, ..., Mz; optional activation, 0..1, from a "
+                   "CSV header on standard input: docs/model.md section 15) to the header's or "
+                   "LSL channel's name; overrides load_cell.columns.")
 @click.option("--counts-per-force", type=float, default=1e6, show_default=True,
               help="netft: the box's counts per unit force (its calibration page).")
 @click.option("--counts-per-torque", type=float, default=1e6, show_default=True,
@@ -156,6 +157,8 @@ def _live(config, source, arm, output, lsl_out, dash, base, alarm_settings, dura
         from phri_spring.workflows.plots.section import live_section_meta
 
         dash.set_layout(run.labels, cfg.row_labels, cfg.angle_count, alarm=alarm,
+                        tolerance=None if run.curve is None else run.curve.name,
+                        dose_alarm=dose_settings[1],
                         title=f"phri live: {cfg.path.name if cfg.path else 'config'}, {arm} arm, "
                               f"source {source}",
                         section=live_section_meta(cfg, cfg.geometry()))

@@ -54,7 +54,8 @@ from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
               help="Progress on stderr (default: only when stderr is a terminal).")
 @click.option("--uncertainty", type=click.IntRange(min=2), default=None, metavar="N",
               help="Monte Carlo with N draws: OUT gets the 5/50/95th percentiles of each "
-                   "element's force instead (docs/design.md).")
+                   "element's force instead (docs/design.md); with a tolerance curve, also "
+                   "those of dose_max over the draws.")
 @click.option("--uncertainty-sd", default=None, metavar="LIST",
               help="SDs of the draws: tissue=from_csv|FRACTION (k0), stiffening=from_csv|"
                    "FRACTION (the exponential law's beta), tension=N, force=N, moment=N*m "
@@ -101,12 +102,6 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         from phri_spring.io.config.tolerance import curve_option
 
         curve_option(tolerance)       # an unknown name is refused before anything is read
-        if uncertainty is not None:
-            from phri_spring.errors import UsageError
-
-            raise UsageError("a dose adds up one run's pressures over time; --uncertainty "
-                             "writes percentiles of forces, not a run: use one or the other",
-                             key="--tolerance")
     if uncertainty is not None:
         from phri_spring.workflows.uncertainty.run import run_cli
         if base.kind == "none":   # (run_cli refuses any other baseline with its own line)
@@ -116,7 +111,7 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
         try:
             run = run_cli(config, log, output, arm, str(base), colmap, uncertainty,
                           uncertainty_sd, seed, progress=bar if bar.enabled else None,
-                          group=group)
+                          group=group, tolerance=tolerance)
         finally:
             bar.close()
         info(run.summary_line(), quiet)

@@ -12,6 +12,7 @@
 - :mod:`~phri_spring.workflows.config_paths` Editing a config mapping by dotted path (``cuff.stiffness.per_angle[5]``), for ``phri design``
 - :mod:`~phri_spring.workflows.hyper_arm` Config -> the coupled arm with a hyperelastic layer (``tissue.continuum.law``
 - :mod:`~phri_spring.workflows.live` ``phri live`` as library calls: the pressure map while the experiment runs (docs/live.md)
+- :mod:`~phri_spring.workflows.live_alarm` The alarms of ``phri live``: a level with hysteresis and the checks of its options
 - :mod:`~phri_spring.workflows.log_run` A streamed run over a wrench log: its setup (:class:`LogRun`) and its summary, added up chunk by chunk
 - :mod:`~phri_spring.workflows.pipeline` The one pipeline of simulate, simulate --uncertainty and live: readings -> forces, the baseline, the extra columns and their types
 - :mod:`~phri_spring.workflows.simulate` ``phri simulate`` as library calls: wrench log -> contact force of every element

@@ -12,6 +12,11 @@ when it has come back below a lower clear level for long enough (hysteresis: no
 chatter), and any number of observers (:meth:`LiveRun.subscribe`:
 a dashboard gets a :class:`LiveSnapshot` per sample).
 
+A stream that carries a muscle activation (a CSV header's ``activation`` column,
+:attr:`~phri_spring.io.live.sources.LiveSource.has_activation`) is solved with the
+tissue's history from its first sample on, as ``phri simulate`` solves a log with that
+column (docs/model.md section 15.2): the tissue stiffness is scaled by 1 + (c - 1) a.
+
 A ``first:SECONDS`` or ``window:T0:T1`` baseline is the mean wrench of the
 stream over that window: samples are held until the window has passed (a
 sample later than its end, or the end of the stream), then solved in order,
@@ -35,7 +40,7 @@ from typing import Callable, List, Optional
 
 import numpy as np
 
-from ..errors import DataError, UsageError
+from ..errors import DataError
 from ..io.outputs.atomic import check_output_path
 from ..io.config import Config
 from ..io.live.outputs import LiveTable, LslMarkers, LslOutlet
@@ -43,13 +48,15 @@ from ..io.live.sources import LiveSource
 from ..io.logs import table_format
 from ..physics.contact.solver import Solver
 from ..io.config.tolerance import curve_option
-from .common import cuff_wrench, model_from_config
+from .common import cuff_wrench, history_model, model_from_config
 from .columns.tolerance import LiveDose
+from .live_alarm import (ALARM_CLEAR_FRACTION, ALARM_HOLD_S, Alarm, check_alarm_settings,
+                         check_dose_alarm)
 from .pipeline import (Baseline, baseline_forces, extra_arrow_types, parse_baseline,
                        per_sample_extras)
 
 __all__ = ["LiveRun", "LiveSnapshot", "LiveSummary", "StreamHealth", "ALARM_CLEAR_FRACTION",
-           "ALARM_HOLD_S", "check_alarm_settings"]
+           "ALARM_HOLD_S", "check_alarm_settings", "check_dose_alarm"]
 
 #: rows per batch written to the table (also written every _FLUSH_S seconds)
 _BATCH_ROWS = 2048
@@ -94,6 +101,15 @@ class LiveSnapshot:
     alarm : bool
         True while the ratio is at or above the alarm threshold.
     health : StreamHealth
+    dose_max : float
+        With a tolerance curve: the largest dose over the elements so far [-] (may be
+        infinite against a time-independent curve); NaN without a curve.
+    dose_element : str
+        Its element ('' without a curve).
+    dose_alarm : bool
+        True once the dose alarm was raised (it stays raised).
+    activation : float
+        The sample's muscle activation (0..1), NaN when the stream carries none.
     """
 
     time: float
@@ -108,6 +124,10 @@ class LiveSnapshot:
     converged: bool
     alarm: bool
     health: StreamHealth
+    dose_max: float = math.nan
+    dose_element: str = ""
+    dose_alarm: bool = False
+    activation: float = math.nan
 
 
 @dataclass
@@ -133,71 +153,6 @@ class LiveSummary:
     stopped_by: str = "end"
     signum: Optional[int] = None
     baseline_forces: Optional[np.ndarray] = None
-
-
-#: the alarm clears below this fraction of its raise level unless told (--alarm-clear): a
-#: ratio dithering by the noise of a load cell around the threshold raises it once
-ALARM_CLEAR_FRACTION = 0.9
-#: and not before it has been on this long [s] of stream time (--alarm-hold)
-ALARM_HOLD_S = 0.5
-
-
-class _Alarm:
-    """The alarm's state, with hysteresis: raised when the ratio reaches ``threshold``;
-    cleared when it is below ``clear`` once the alarm has been on ``hold`` seconds of the
-    stream's time (a stream whose time goes back, restarted, counts as past the hold)."""
-
-    def __init__(self, threshold: Optional[float], clear: Optional[float] = None,
-                 hold: float = ALARM_HOLD_S):
-        self.threshold = threshold
-        self.clear = (None if threshold is None else
-                      threshold * ALARM_CLEAR_FRACTION if clear is None else float(clear))
-        self.hold = float(hold)
-        self.on = False
-        self.count = 0
-        self._since = math.nan
-
-    def update(self, ratio: float, t: float = math.nan):
-        """'on', 'off' or None (no change) at the sample of time ``t`` [s]; a NaN ratio
-        changes nothing."""
-        if self.threshold is None or not math.isfinite(ratio):
-            return None
-        if not self.on and ratio >= self.threshold:
-            self.on, self._since = True, t
-            self.count += 1
-            return "on"
-        if self.on and ratio < self.clear:
-            held = t - self._since
-            if not held < self.hold or held < 0:      # NaN times: no hold to wait for
-                self.on = False
-                return "off"
-        return None
-
-
-def check_dose_alarm(curve, dose_alarm):
-    """The curve, after checking that a dose alarm has one and a positive level."""
-    if dose_alarm is None:
-        return curve
-    if not (math.isfinite(dose_alarm) and dose_alarm > 0):
-        raise UsageError(f"expected a positive dose, got {dose_alarm!r}", key="--dose-alarm")
-    if curve is None:
-        raise UsageError("a dose needs a pressure-time curve: give --tolerance NAME or the "
-                         "config's tolerance.curve", key="--dose-alarm")
-    return curve
-
-
-def check_alarm_settings(alarm, clear, hold) -> None:
-    """One line naming the option for alarm settings that cannot work together."""
-    if clear is not None and alarm is None:
-        raise UsageError("the clear level needs a raise level; expected --alarm RATIO too",
-                         key="--alarm-clear")
-    if alarm is not None and not (math.isfinite(alarm) and alarm > 0):
-        raise UsageError(f"expected a positive ratio, got {alarm!r}", key="--alarm")
-    if clear is not None and not (0 < clear <= alarm):
-        raise UsageError(f"expected a ratio > 0 and <= --alarm {alarm:g} (the alarm clears "
-                         f"below the level that raised it), got {clear!r}", key="--alarm-clear")
-    if not (math.isfinite(hold) and hold >= 0):
-        raise UsageError(f"expected a time >= 0 [s], got {hold!r}", key="--alarm-hold")
 
 
 class LiveRun:
@@ -273,10 +228,12 @@ class LiveRun:
         self.model = model if model is not None else model_from_config(config, arm,
                                                                        cache_dir=cache_dir)
         self.labels = tuple(self.model.labels)
-        self._alarm = _Alarm(alarm, alarm_clear, alarm_hold)
+        self._alarm = Alarm(alarm, alarm_clear, alarm_hold)
         curve = check_dose_alarm(curve_option(tolerance, config), dose_alarm)
+        #: the tolerance curve the dose is followed against (None: no dose)
+        self.curve = curve
         self._dose = None if curve is None else LiveDose(
-            self.model, curve, _Alarm(dose_alarm, None, alarm_hold))
+            self.model, curve, Alarm(dose_alarm, None, alarm_hold))
         self._observers: List[Callable[[LiveSnapshot], None]] = []
         self._stop_signal: Optional[int] = None
         self._stop_event = threading.Event()
@@ -336,12 +293,7 @@ class LiveRun:
     # ------------------------------------------------------------------ the loop
     def _loop(self, summary: LiveSummary, status) -> None:
         cfg, model = self.cfg, self.model
-        if getattr(model, "has_history", False):    # relaxing tissue: samples in order
-            from ..physics.history.model import HistorySolver
-
-            self._solver = HistorySolver(model, max_iterations=cfg.max_iterations)
-        else:
-            self._solver = Solver(model, max_iterations=cfg.max_iterations)
+        self._solver = self._make_solver()
         self._inv_area = np.asarray(model.inv_area_kpa, dtype=float)
         self._batch = {"time": [], "forces": [], "abs": [], "contact": [], "its": [],
                        "conv": []}
@@ -368,6 +320,8 @@ class LiveRun:
                 max(min(_TICK_S, self.duration - (now - start)), 0.0)
             sample = self.source.read(wait)
             self._events(sample[0] if sample is not None else None)
+            if sample is not None and len(sample) == 3 and not self._history:
+                self._take_activation()
             if sample is None:
                 if self.source.ended:
                     break
@@ -382,7 +336,7 @@ class LiveRun:
                     held = None
             else:
                 received += 1
-                self._process(*sample, summary)
+                self._process(sample, summary)
             if time.monotonic() - self._last_flush >= _FLUSH_S:
                 self._flush()
             if status is not None and time.monotonic() - last_status >= 0.5:
@@ -394,11 +348,31 @@ class LiveRun:
             summary.stopped_by = "signal" if self._stop_signal is not None else "stop"
             summary.signum = self._stop_signal
 
+    @property
+    def _history(self) -> bool:
+        return getattr(self.model, "has_history", False)
+
+    def _make_solver(self):
+        if self._history:    # relaxing tissue or an activation: samples in order
+            from ..physics.history.model import HistorySolver
+
+            return HistorySolver(self.model, max_iterations=self.cfg.max_iterations)
+        return Solver(self.model, max_iterations=self.cfg.max_iterations)
+
+    def _take_activation(self) -> None:
+        """The stream carries an activation: the tissue's history model from now on, as
+        ``phri simulate`` does (a baseline stays the one of activation 0; the rigid arm has
+        no tissue and stays as it is; the others are refused in one line)."""
+        model = history_model(self.model, self.cfg)
+        if model is not self.model:
+            self.model = model
+            self._solver = self._make_solver()
+
     def _release(self, held: list, t_end: float, summary: LiveSummary) -> None:
         """Solve the samples held for a first:/window: baseline, once its window is known."""
         base = self.baseline
-        times = np.array([t for t, _ in held])
-        wrenches = np.array([w for _, w in held])
+        times = np.array([s[0] for s in held])
+        wrenches = np.array([s[1] for s in held])
         if base.kind == "first":
             mask = times <= t_end
         else:
@@ -409,15 +383,17 @@ class LiveRun:
         self._f_base = baseline_forces(self.model, self.cfg, base, wrenches[mask].mean(axis=0),
                                        self.cfg.max_iterations)
         summary.baseline_forces = self._f_base
-        for t, w in held:
-            self._process(t, w, summary)
+        for sample in held:
+            self._process(sample, summary)
 
-    def _process(self, t: float, w: np.ndarray, summary: LiveSummary) -> None:
+    def _process(self, sample, summary: LiveSummary) -> None:
+        """One sample ``(time [s], wrench (6,)[, activation])``: solve it, hand it out."""
         t0 = time.monotonic()
+        t, w = sample[0], sample[1]
+        a = sample[2] if len(sample) == 3 else None
         solver = self._solver
         W = cuff_wrench(self.cfg, w[None])[0]
-        f_abs = solver.forces(W, t) if getattr(self.model, "has_history", False) \
-            else solver.forces(W)
+        f_abs = solver.forces(W, t, a) if self._history else solver.forces(W)
         forces = f_abs if self._f_base is None else f_abs - self._f_base
         contact = solver.last_contact
         conv = solver.last_converged
@@ -453,8 +429,9 @@ class LiveRun:
             self.notify(line)
             if self._markers is not None:
                 self._markers.push(f"alarm {change}: ratio {ratio:.4f}", t)
+        dose, dose_j = math.nan, None
         if self._dose is not None:
-            self._dose_sample(t, f_abs if conv else np.full(len(f_abs), np.nan))
+            dose, dose_j = self._dose_sample(t, f_abs if conv else np.full(len(f_abs), np.nan))
         if self._outlet is not None:
             self._outlet.push([*forces.tolist(), ratio, float(contacts)], t)
         self._rate.tick()
@@ -464,13 +441,18 @@ class LiveRun:
                                 peak_element=self.labels[j], ratio=ratio,
                                 contacts_in_touch=contacts, converged=conv,
                                 alarm=self._alarm.on,
-                                health=self._health(time.monotonic() - t0))
+                                health=self._health(time.monotonic() - t0),
+                                dose_max=dose,
+                                dose_element="" if dose_j is None else self.labels[dose_j],
+                                dose_alarm=self._dose is not None and self._dose.alarm.on,
+                                activation=math.nan if a is None else float(a))
             for observer in self._observers:
                 observer(snap)
         if len(b["time"]) >= _BATCH_ROWS:
             self._flush()
 
-    def _dose_sample(self, t: float, f_abs) -> None:
+    def _dose_sample(self, t: float, f_abs):
+        """Add the sample to the dose; ``(largest dose so far, its element index)``."""
         dose, j, change = self._dose.update(t, f_abs)
         if change == "on":
             line = (f"DOSE ALARM: dose {dose:.3g} >= {self._dose.alarm.threshold:g} against "
@@ -478,6 +460,7 @@ class LiveRun:
             self.notify(line)
             if self._markers is not None:
                 self._markers.push(f"dose alarm on: {dose:.4g}", t)
+        return dose, j
 
     def _flush(self) -> None:
         """Write the batch of processed rows to the table."""

@@ -93,6 +93,7 @@ def test_activation_outside_0_1_is_one_line_naming_column_and_row(tmp_path, bad)
     ({"fractions": [0.6, 0.5], "times_s": [1.0, 2.0]}, "sum < 1"),
     ({"fractions": [0.2], "times_s": [0.0]}, "times_s"),
     ({"fractions": [0.2, 0.1], "times_s": [1.0]}, "as many"),
+    ({"fractions": [-0.2], "times_s": [1.0]}, "fractions: expected finite numbers >= 0"),
 ])
 def test_bad_relaxation_is_one_line_naming_the_key(tmp_path, relaxation, needle):
     cfg = _config(tmp_path, relaxation=relaxation)

@@ -22,16 +22,16 @@ class Relaxation(BaseModel):
 
     @model_validator(mode="after")
     def _series(self):
-        import math
+        # the physics' own checks, in one place: its message without its own key's prefix
+        # (the config's error names tissue.relaxation)
+        from ...errors import ModelInputError
+        from ...physics.history.relaxation import Prony
 
-        if len(self.fractions) != len(self.times_s):
-            raise ValueError(f"expected as many fractions as times_s, got {len(self.fractions)} "
-                             f"and {len(self.times_s)}")
-        if any(not math.isfinite(g) or g < 0 for g in self.fractions):
-            raise ValueError("fractions: expected finite numbers >= 0")
-        if not sum(self.fractions) < 1.0:
-            raise ValueError(f"fractions: expected a sum < 1 (the relaxed tissue keeps a "
-                             f"stiffness), got {sum(self.fractions):g}")
-        if any(not math.isfinite(t) or t <= 0 for t in self.times_s):
-            raise ValueError("times_s: expected finite times > 0 [s]")
+        try:
+            Prony(self.fractions, self.times_s)
+        except ModelInputError as exc:
+            text = str(exc)
+            for prefix in ("relaxation: ", "relaxation."):
+                text = text.removeprefix(prefix)
+            raise ValueError(text) from None
         return self

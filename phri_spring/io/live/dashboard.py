@@ -77,8 +77,16 @@ def snapshot_json(snap, *, age_s: float = 0.0) -> dict:
     Forces are the zeroed element forces [N] in the model's label order (row-major,
     A0..A6, B0..); floats keep every digit (``json`` writes their shortest repr).
     ``age_s`` is the time from the sample's processing to this event [s].
+    ``dose`` is null without a tolerance curve, else the largest dose over the elements
+    so far (``max``, null when infinite, then ``infinite`` is true), its ``element`` and
+    whether the dose ``alarm`` was raised; ``activation`` is null when the stream
+    carries none.
     """
     h = snap.health
+    dose_max = float(getattr(snap, "dose_max", math.nan))
+    dose = None if not getattr(snap, "dose_element", "") else {
+        "max": _num(dose_max), "infinite": dose_max == math.inf,
+        "element": snap.dose_element, "alarm": bool(snap.dose_alarm)}
     return {
         "sample": int(h.samples),
         "time": _num(snap.time),
@@ -91,6 +99,8 @@ def snapshot_json(snap, *, age_s: float = 0.0) -> dict:
         "contacts_in_touch": int(snap.contacts_in_touch),
         "converged": bool(snap.converged),
         "alarm": bool(snap.alarm),
+        "dose": dose,
+        "activation": _num(getattr(snap, "activation", math.nan)),
         "health": {"samples": int(h.samples), "lost": int(h.lost),
                    "malformed": int(h.malformed), "gaps": int(h.gaps),
                    "rate_hz": _num(h.rate_hz), "processing_ms": _num(h.processing_s * 1e3),
@@ -213,7 +223,7 @@ class LiveDashboard:
         self.host = host
         self.port = int(self._server.server_address[1])
         self.meta: dict = {"labels": [], "row_labels": [], "n_angles": 0, "alarm": None,
-                           "title": "phri live"}
+                           "title": "phri live", "tolerance": None, "dose_alarm": None}
         #: (snapshot, monotonic time it came in) or None; replaced, never mutated
         self.latest = None
         self.closed = threading.Event()
@@ -229,16 +239,21 @@ class LiveDashboard:
 
     def set_layout(self, labels: Sequence[str], row_labels: Sequence[str], n_angles: int, *,
                    alarm: Optional[float] = None, title: str = "phri live",
-                   section: Optional[dict] = None) -> None:
+                   section: Optional[dict] = None, tolerance: Optional[str] = None,
+                   dose_alarm: Optional[float] = None) -> None:
         """The element grid (labels row-major) and what the page's titles say; ``section``:
         the limb's outlines and elements for the page's view of the pressure around the
-        limb (:func:`phri_spring.workflows.plots.section.live_section_meta`), None: no view."""
+        limb (:func:`phri_spring.workflows.plots.section.live_section_meta`), None: no view;
+        ``tolerance``: the name of the curve the dose is followed against (None: no dose
+        shown) and ``dose_alarm`` its alarm level."""
         labels = [str(x) for x in labels]
         rows, n = [str(r) for r in row_labels], int(n_angles)
         if len(rows) * n != len(labels):          # not a rows x angles grid: one row
             rows, n = [""], len(labels)
         self.meta = {"labels": labels, "row_labels": rows, "n_angles": n,
-                     "alarm": None if alarm is None else float(alarm), "title": str(title)}
+                     "alarm": None if alarm is None else float(alarm), "title": str(title),
+                     "tolerance": None if tolerance is None else str(tolerance),
+                     "dose_alarm": None if dose_alarm is None else float(dose_alarm)}
         if section is not None:
             self.meta["section"] = section
 

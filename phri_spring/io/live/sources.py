@@ -2,8 +2,9 @@
 
 Every source has the same small interface (:class:`LiveSource`): :meth:`~LiveSource.open`,
 then :meth:`~LiveSource.read` returns one sample ``(time [s], wrench (6,) in the
-load cell's units)`` or None when none came within the timeout, until
-``ended``; :meth:`~LiveSource.close`. What happens to the stream (a malformed
+load cell's units)`` (``(time, wrench, activation)`` from a stream that carries a muscle
+activation, :attr:`~LiveSource.has_activation`) or None when none came within the
+timeout, until ``ended``; :meth:`~LiveSource.close`. What happens to the stream (a malformed
 line or packet skipped, a stall, a reconnection) is counted in ``stats`` and
 told in ``events`` (lines for the user, drained by the caller). A source that
 goes quiet is waited for: the Net F/T is asked to start again, LSL reconnects
@@ -11,7 +12,8 @@ by itself; the silence is recorded as a gap.
 
 :func:`make_source` turns the ``--source`` text into a source: ``-`` (CSV lines
 ``time,Fx,Fy,Fz,Mx,My,Mz`` on standard input, an optional header line first,
-``#`` comment lines skipped), ``netft:HOST[:PORT]`` (ATI Net F/T, RDT over UDP,
+``#`` comment lines skipped; a header may name an ``activation`` column, 0..1, as a
+log's), ``netft:HOST[:PORT]`` (ATI Net F/T, RDT over UDP,
 :mod:`phri_spring.io.live.netft`) or ``lsl:NAME`` (a Lab Streaming Layer stream
 found by name; needs the ``live`` extra, pylsl).
 """
@@ -30,7 +32,7 @@ from typing import Optional
 import numpy as np
 
 from ...errors import DataError, UsageError
-from ..logs.columns import LOG_COLUMNS
+from ..logs.columns import ACTIVATION, LOG_COLUMNS, OPTIONAL_LOG_COLUMNS
 from ..logs.base import resolve_columns
 from .netft import (DEFAULT_COUNTS_PER_FORCE, DEFAULT_COUNTS_PER_TORQUE, RDT_PORT, RdtClient,
                         SequenceTracker, unpack_record)
@@ -96,6 +98,9 @@ class LiveSource:
     name = ""
     #: nominal sample rate [Hz], 0 when unknown or irregular
     nominal_rate = 0.0
+    #: True once the stream is known to carry a muscle activation (0..1) with every
+    #: sample: :meth:`read` then returns ``(time, wrench, activation)``
+    has_activation = False
 
     def __init__(self, stall_timeout: float = 1.0):
         self.stats = SourceStats()
@@ -110,7 +115,8 @@ class LiveSource:
         self._last_data = time.monotonic()
 
     def read(self, timeout: float):
-        """One sample ``(time [s], wrench (6,))``, or None if none came within ``timeout``."""
+        """One sample ``(time [s], wrench (6,))`` (and its activation when
+        :attr:`has_activation`), or None if none came within ``timeout``."""
         raise NotImplementedError
 
     def close(self) -> None:
@@ -159,7 +165,9 @@ class StdinCsvSource(LiveSource):
 
     A header line may come first (any line that is not all numbers, before the
     first data line): its names are mapped like a log's (``load_cell.columns``,
-    ``--column``) and may hold other columns too. Without one the seven numbers
+    ``--column``) and may hold other columns too; an ``activation`` column (or the
+    one ``--column activation=NAME`` maps) is read with every sample, and a value
+    outside 0..1 makes its line malformed. Without one the seven numbers
     come in that order. Lines starting with ``#`` and blank lines are skipped; a
     line that is not seven finite numbers is counted as malformed and skipped.
     The end of the stream ends the source.
@@ -250,7 +258,8 @@ class StdinCsvSource(LiveSource):
             except ValueError:
                 self._header(text)
                 return
-            if self.columns and any(self.columns.get(c, c) != c for c in LOG_COLUMNS):
+            if self.columns and any(self.columns.get(c, c) != c
+                                    for c in (*LOG_COLUMNS, ACTIVATION) if c in self.columns):
                 raise DataError("expected a header line naming the columns "
                                 f"({', '.join(self.columns.get(c, c) for c in LOG_COLUMNS)}): "
                                 "load_cell.columns or --column map them", file="<stdin>")
@@ -269,13 +278,22 @@ class StdinCsvSource(LiveSource):
         if not all(math.isfinite(v) for v in values):
             self._malformed(f"line {self._line}: expected finite numbers, got {text[:60]!r}")
             return
-        self._pending.append((values[0], np.array(values[1:], dtype=float)))
+        wrench = np.array(values[1:7], dtype=float)
+        if not self.has_activation:
+            self._pending.append((values[0], wrench))
+        elif 0.0 <= values[7] <= 1.0:
+            self._pending.append((values[0], wrench, values[7]))
+        else:
+            self._malformed(f"line {self._line}: expected a muscle activation from 0 to 1, "
+                            f"got {values[7]:g}")
 
     def _header(self, text: str) -> None:
         names = [n.strip() for n in next(csv.reader([text]))]
-        cols = resolve_columns(names, self.columns, file="<stdin>")
+        cols = resolve_columns(names, self.columns, file="<stdin>",
+                               wanted=LOG_COLUMNS + OPTIONAL_LOG_COLUMNS)
         self._index = [names.index(c) for c in cols]
         self._width = len(names)
+        self.has_activation = len(cols) > len(LOG_COLUMNS)
 
 
 # --------------------------------------------------------------------------- Net F/T

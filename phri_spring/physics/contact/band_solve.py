@@ -114,10 +114,6 @@ def band_model(spring: SpringModel, stiffness: float, width: float, tension: flo
                               "interface.friction_coefficient: the friction path holds a "
                               "constant strap wrench, not one that follows the cuff",
                               "friction_coefficient")
-    if spring.law is not None and spring.law.has_state:
-        raise ModelInputError("the band strap is not available with a tissue law with "
-                              f"history ({spring.law.name}): the band's tension is solved "
-                              "per sample, not along the law's time path", "tissue_law")
     path = band_path(spring.geometry, handle_angles_deg, handle_axial_position)
     k_b = float(stiffness) / path.length
     base = {f.name: getattr(spring, f.name) for f in fields(SpringModel) if f.init}

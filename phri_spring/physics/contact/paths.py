@@ -35,8 +35,8 @@ def nonlinear_finish(model, r, u, its, conv, max_iterations):
     from ..springs.newton import solve_newton   # on demand: the linear laws never need it
 
     f = np.empty((len(r), model.n))
-    u[:], itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations,
-                                        forces_out=f)
+    u[:], itn, conv_n = solve_newton(model, r, u, max_iterations=max_iterations,
+                                     forces_out=f)
     its += itn
     conv &= conv_n
     return model.delta0 + u @ model.bT, f

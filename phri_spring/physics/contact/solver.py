@@ -288,9 +288,8 @@ def solve(model, wrench, *, max_iterations: int = 100, warm_start: bool = True,
     conv = np.empty(m, dtype=bool)
     contact = np.empty((m, n), dtype=bool)
     block = max(256, _BLOCK_ENTRIES // max(n, 1))
-    # a nonlinear law without history: each sample may start from its solved neighbours
-    warm_newton = (not linear and warm_start and initial_active is None
-                   and not model.element.law.has_state)
+    # a nonlinear law: each sample may start from its solved neighbours
+    warm_newton = not linear and warm_start and initial_active is None
     carry = None  # warm start across blocks: the last solved sample's contact set
     with np.errstate(over="ignore", invalid="ignore"):
         for s in range(0, m, block):

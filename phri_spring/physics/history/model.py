@@ -172,15 +172,14 @@ class HistoryModel:
         the others and of the model's history: what a static question (an interface
         stiffness, a design's load set, a comparison's held conditions) asks."""
         W = np.atleast_2d(np.asarray(wrench, dtype=float))
-        m = len(W)
+        W, _ = _as_log(W, np.zeros(len(W)))
         fresh = HistoryState(len(self.relaxation.g), len(self._kt))
         # an infinite step before every sample forgets all history (a = b = 0)
-        return self.solve_log(W, np.zeros(m), activation, max_iterations=max_iterations,
-                              state=fresh, keep=False, _rested=True)
+        return _solve_steps(self, W, np.full(len(W), np.inf), activation, fresh,
+                            max_iterations)
 
     def solve_log(self, wrench, times, activation=None, *, max_iterations: int = 100,
-                  state: HistoryState | None = None, keep: bool = True,
-                  _rested: bool = False) -> Solution:
+                  state: HistoryState | None = None, keep: bool = True) -> Solution:
         """Solve the samples of a log in order, from the model's state (or ``state``).
 
         Parameters
@@ -198,53 +197,74 @@ class HistoryModel:
         keep : bool
             Keep the state after the last sample as the model's (the next call continues).
         """
-        W = np.atleast_2d(np.asarray(wrench, dtype=float))
-        t = np.atleast_1d(np.asarray(times, dtype=float))
-        m, n = len(W), len(self._kt)
-        if W.shape != (m, 6) or t.shape != (m,):
-            raise ValueError(f"wrench and times: expected shapes (m, 6) and (m,), got "
-                             f"{W.shape} and {t.shape}")
-        if not (np.isfinite(W).all() and np.isfinite(t).all()):
-            raise ValueError("wrench and times: expected finite numbers")
+        W, t = _as_log(wrench, times)
         st = (self.state if state is None else state).copy()
-        dt = np.empty(m)
-        dt[0] = np.inf if st.time is None else t[0] - st.time
-        dt[1:] = np.inf if _rested else np.diff(t)
-        np.maximum(dt, 0.0, out=dt)
-        A, Bc = step_coefficients(self.relaxation, dt)
-        if activation is None:
-            s = np.ones(m)
-        else:
-            a = np.asarray(activation, dtype=float)
-            s = activation_scale(a, self.activation_factor)
-        with np.errstate(over="ignore", invalid="ignore"):
-            r = W + self.base.W_pre
-        u = np.empty((m, 6))
-        f = np.empty((m, n))
-        tangential = np.empty((m, n, 2))
-        its = np.zeros(m, dtype=np.int64)
-        conv = np.zeros(m, dtype=bool)
-        kernel()(np.ascontiguousarray(r), np.ascontiguousarray(A), np.ascontiguousarray(Bc),
-                 np.ascontiguousarray(s), self._b, self._Ms, self._PB, self._axes,
-                 np.ascontiguousarray(self.base.delta0, dtype=float), self._kt, self._kc,
-                 self._eta, self._beta, self._law_exp, float(self.relaxation.relaxed),
-                 np.ascontiguousarray(self.relaxation.g), st.h, st.hs, st.Fe, st.Se, st.u,
-                 u, f, tangential, its, conv, int(max_iterations), 1e-10)
-        st.time = float(t[-1]) if m else st.time
+        dt = np.empty(len(W))
+        if len(W):
+            dt[0] = np.inf if st.time is None else t[0] - st.time
+            dt[1:] = np.diff(t)
+        sol = _solve_steps(self, W, dt, activation, st, max_iterations)
+        st.time = float(t[-1]) if len(W) else st.time
         if keep:
             self.state = st
-        contact = f > 0
-        if not conv.all():
-            f[~conv] = np.nan
-            contact[~conv] = False
-        return Solution(u=u, forces=f, iterations=its, converged=conv, contact=contact,
-                        tangential=tangential)
+        return sol
 
     def rested_forces(self, wrench, activation: float = 0.0, *, max_iterations: int = 100):
         """Forces (n,) [N] of the tissue rested long under ``wrench`` (6,), without touching
         the model's history: the relaxed answer (a baseline of a log)."""
         return self.solve_rested(np.atleast_2d(wrench), [activation],
                                  max_iterations=max_iterations).forces[0]
+
+
+def _as_log(wrench, times):
+    """``(W (m, 6), t (m,))`` as arrays of finite numbers, or a ValueError."""
+    W = np.atleast_2d(np.asarray(wrench, dtype=float))
+    t = np.atleast_1d(np.asarray(times, dtype=float))
+    m = len(W)
+    if W.shape != (m, 6) or t.shape != (m,):
+        raise ValueError(f"wrench and times: expected shapes (m, 6) and (m,), got "
+                         f"{W.shape} and {t.shape}")
+    if not (np.isfinite(W).all() and np.isfinite(t).all()):
+        raise ValueError("wrench and times: expected finite numbers")
+    return W, t
+
+
+def _solve_steps(model: HistoryModel, wrench, dt, activation, state: HistoryState,
+                max_iterations: int = 100) -> Solution:
+    """Solve wrenches (m, 6) in order, each after a step dt (m,) [s] from the one before
+    (the first from ``state``'s last sample): the sample loop of
+    :meth:`HistoryModel.solve_log` (dt from the sample times) and
+    :meth:`HistoryModel.solve_rested` (dt infinite: every sample after a long rest).
+
+    A step <= 0 is no time passing; ``state`` (its memory terms and displacements) is
+    advanced in place, its ``time`` left to the caller.
+    """
+    W = np.asarray(wrench, dtype=float)
+    m, n = len(W), len(model._kt)
+    dt = np.maximum(np.asarray(dt, dtype=float), 0.0)
+    A, Bc = step_coefficients(model.relaxation, dt)
+    s = (np.ones(m) if activation is None
+         else activation_scale(np.asarray(activation, dtype=float), model.activation_factor))
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = W + model.base.W_pre
+    u = np.empty((m, 6))
+    f = np.empty((m, n))
+    tangential = np.empty((m, n, 2))
+    its = np.zeros(m, dtype=np.int64)
+    conv = np.zeros(m, dtype=bool)
+    st = state
+    kernel()(np.ascontiguousarray(r), np.ascontiguousarray(A), np.ascontiguousarray(Bc),
+             np.ascontiguousarray(s), model._b, model._Ms, model._PB, model._axes,
+             np.ascontiguousarray(model.base.delta0, dtype=float), model._kt, model._kc,
+             model._eta, model._beta, model._law_exp, float(model.relaxation.relaxed),
+             np.ascontiguousarray(model.relaxation.g), st.h, st.hs, st.Fe, st.Se, st.u,
+             u, f, tangential, its, conv, int(max_iterations), 1e-10)
+    contact = f > 0
+    if not conv.all():
+        f[~conv] = np.nan
+        contact[~conv] = False
+    return Solution(u=u, forces=f, iterations=its, converged=conv, contact=contact,
+                    tangential=tangential)
 
 
 class HistorySolver:

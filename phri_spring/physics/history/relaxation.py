@@ -41,7 +41,7 @@ import numpy as np
 
 from ...errors import ModelInputError
 
-__all__ = ["Prony", "step_coefficients", "hereditary_force"]
+__all__ = ["Prony", "step_coefficients"]
 
 
 @dataclass(frozen=True)
@@ -63,17 +63,17 @@ class Prony:
         g = np.atleast_1d(np.asarray(self.fractions, dtype=float))
         tau = np.atleast_1d(np.asarray(self.times_s, dtype=float))
         if g.ndim != 1 or tau.ndim != 1 or len(g) != len(tau):
-            raise ModelInputError("relaxation: expected as many fractions as times_s",
-                                  "relaxation")
+            raise ModelInputError(f"relaxation: expected as many fractions as times_s, got "
+                                  f"{g.size} and {tau.size}", "relaxation")
         if not (np.isfinite(g).all() and (g >= 0).all()):
-            raise ModelInputError("relaxation.fractions: expected finite values >= 0",
+            raise ModelInputError("relaxation.fractions: expected finite numbers >= 0",
                                   "relaxation")
         if not float(g.sum()) < 1.0:
             raise ModelInputError(f"relaxation.fractions: expected a sum < 1 (the relaxed "
                                   f"tissue keeps a stiffness), got {float(g.sum()):g}",
                                   "relaxation")
         if not (np.isfinite(tau).all() and (tau > 0).all()):
-            raise ModelInputError("relaxation.times_s: expected finite times > 0 s",
+            raise ModelInputError("relaxation.times_s: expected finite times > 0 [s]",
                                   "relaxation")
         object.__setattr__(self, "fractions", tuple(float(x) for x in g))
         object.__setattr__(self, "times_s", tuple(float(x) for x in tau))
@@ -116,34 +116,3 @@ def step_coefficients(prony: Prony, dt) -> tuple[np.ndarray, np.ndarray]:
         b = np.where(x > 1e-8, -np.expm1(-x) / np.where(x > 1e-8, x, 1.0), 1.0 - 0.5 * x)
     b = np.where(np.isinf(x), 0.0, b)
     return a, b
-
-
-def hereditary_force(prony: Prony, t, Fe) -> np.ndarray:
-    """The QLV force at every sample of an elastic response history, by the exact integral.
-
-    F(t_n) = G_inf F^e_n + sum_i g_i sum_{k=1}^{n} (F^e_k - F^e_{k-1}) / dt_k
-             * int_{t_{k-1}}^{t_k} exp(-(t_n - s) / tau_i) ds,
-
-    F^e linear between samples and rested at F^e_0 before t_0. O(m^2) work: a reference for
-    tests and small histories, not the solver's recursion.
-
-    Parameters
-    ----------
-    t : array_like, shape (m,)
-        Increasing sample times [s].
-    Fe : array_like, shape (m, ...)
-        Elastic response F^e at every sample (any trailing shape).
-    """
-    t = np.asarray(t, dtype=float)
-    Fe = np.asarray(Fe, dtype=float)
-    out = prony.relaxed * Fe.copy()
-    for n in range(1, len(t)):
-        for g, tau in zip(prony.g, prony.tau):
-            acc = np.zeros(Fe.shape[1:])
-            for k in range(1, n + 1):
-                dt = t[k] - t[k - 1]
-                w = (tau * (np.exp(-(t[n] - t[k]) / tau) - np.exp(-(t[n] - t[k - 1]) / tau)) / dt
-                     if dt > 0 else np.exp(-(t[n] - t[k]) / tau))
-                acc = acc + w * (Fe[k] - Fe[k - 1])
-            out[n] = out[n] + g * acc
-    return out

@@ -18,10 +18,9 @@ Adding a law (docs/extending.md, "Adding a tissue law"): subclass
 ``tissue.``, each with its unit and default), implement ``force``, ``tangent``
 and ``energy``, and decorate it with :func:`register_law`. The config then
 accepts ``tissue.law: NAME`` and the parameters' keys, and every command runs it.
-A law whose force depends on the loading history (viscoelastic, plastic) sets
-``has_state`` and implements :meth:`TissueLaw.initial_state` and
-:meth:`TissueLaw.advance`; the solver then solves the samples in order and
-carries the state from sample to sample and from chunk to chunk.
+A law is elastic: its force depends on the compression only. A tissue whose force
+depends on its loading history (QLV relaxation, muscle activation) is any of these laws
+solved in time by :class:`~phri_spring.physics.history.model.HistoryModel`.
 
 """
 
@@ -102,11 +101,6 @@ class TissueLaw:
     parameters: ClassVar[tuple] = ()
     #: force = k0 d: the solver then uses its exact linear path
     is_linear: ClassVar[bool] = False
-    #: the force depends on the loading history (samples are solved in order)
-    has_state: ClassVar[bool] = False
-    #: for a law with history: the state the force is evaluated in, set by the solver to
-    #: the state the previous sample left (:meth:`initial_state` before the first)
-    state = None
 
     def __init__(self, k0, **params):
         k0 = np.atleast_1d(np.asarray(k0, dtype=float))
@@ -151,15 +145,6 @@ class TissueLaw:
         """(force, tangent) at compressions d >= 0 [N, N/m]; a law may override it to share
         the work of the two (the spring solver's inner loop asks for both)."""
         return self.force(d), self.tangent(d)
-
-    # ---- history (laws with has_state only)
-    def initial_state(self):
-        """The state before the first sample (None for a law without history)."""
-        return None
-
-    def advance(self, state, d: np.ndarray):
-        """The state after a sample settled at compression d (n,); stateless laws keep it."""
-        return state
 
     # ---- derived
     def series_share(self, d, c_cuff) -> np.ndarray:

@@ -329,10 +329,6 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
         W_pre = W_handles
 
     mu = check_friction(friction_coefficient)
-    if mu is not None and element.law is not None and element.law.has_state:
-        raise ModelInputError("interface.friction_coefficient: friction is not available with a "
-                              f"tissue law with history ({element.law.name}): the friction path "
-                              "does not advance the law's state", "friction_coefficient")
     return SpringModel(geometry=geometry, arm=arm, k=k, k_shear=k_s, K_s=K_s, delta0=delta0,
                        f0=f0, W_pre=W_pre, strap_model=strap_model,
                        pain_threshold_kpa=float(pain_threshold_kpa), element=element,

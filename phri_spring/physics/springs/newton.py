@@ -15,8 +15,9 @@ where an element lifts off; the line search keeps the iteration monotone in Pi
 across those kinks. A row is converged when the residual of the six equilibrium
 equations, sum_e f_e b_e + K_s u - r, is below 1e-10 of the forces in them.
 
-Every row of a block is iterated at once. A law with history (``has_state``)
-is solved one sample after another, its state advanced after each.
+Every row of a block is iterated at once (a tissue with a history, relaxing or
+activated, is :class:`~phri_spring.physics.history.model.HistoryModel`'s, which solves
+the samples in order).
 
 Starts. :func:`solve_newton` starts from given displacements (the solver passes the
 answer of the linear model tangent to the law at the preload). On a log,
@@ -268,8 +269,7 @@ def _damped_rows(model, r, rows, u_start, u, its, conv, f, max_iterations):
     f[rows] = model.element.force(model.delta0 + u_start @ model.bT)
 
 
-def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state=None,
-                 forces_out=None):
+def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, forces_out=None):
     """Equilibria of a spring model with a nonlinear element law for right-hand sides r.
 
     Parameters
@@ -282,8 +282,8 @@ def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state
         Starting displacements (e.g. the linear model's solution) [m, rad].
     max_iterations : int
         Most Newton steps per sample.
-    state : optional
-        The law's state before the first row (laws with history only).
+    forces_out : ndarray, shape (m, n), optional
+        Filled with the element forces of the answers [N].
 
     Returns
     -------
@@ -291,29 +291,11 @@ def solve_newton(model, r, u0, *, max_iterations: int = NEWTON_ITERATIONS, state
     its : ndarray of int, shape (m,)
         Newton steps each row took.
     converged : ndarray of bool, shape (m,)
-    state
-        The law's state after the last row (None for a law without history).
     """
     r = np.atleast_2d(np.asarray(r, dtype=float))
     u = np.array(u0, dtype=float, copy=True).reshape(len(r), 6)
-    law = model.element.law
-    if law is None or not law.has_state:
-        its, conv = _solve_rows(model, r, u, max_iterations, forces_out)
-        return u, its, conv, state
-    # history: one sample after another, the law's state advanced by each
-    its = np.zeros(len(r), dtype=np.int64)
-    conv = np.zeros(len(r), dtype=bool)
-    state = law.initial_state() if state is None else state
-    for i in range(len(r)):
-        law.state = state
-        ui = u[i:i + 1]
-        it_i, ok = _newton_rows(model, r[i:i + 1], ui, max_iterations)
-        u[i], its[i], conv[i] = ui[0], it_i[0], ok[0]
-        state = law.advance(state, model.element.tissue_compression(model.delta0 + u[i] @ model.bT))
-    law.state = state
-    if forces_out is not None:
-        forces_out[...] = model.element.force(model.delta0 + u @ model.bT)
-    return u, its, conv, state
+    its, conv = _solve_rows(model, r, u, max_iterations, forces_out)
+    return u, its, conv
 
 
 #: every WARM_STRIDE-th row of a log is solved first; the rows between start from them
@@ -396,7 +378,7 @@ def _cold(model, system, r, carry, max_iterations):
     """Rows started from the tangent model's answer (its active set, then Newton)."""
     u, _, its, conv = solve_warm(system, r, carry, max_iterations)
     f = np.empty((len(r), model.n))
-    u, itn, conv_n, _ = solve_newton(model, r, u, max_iterations=max_iterations, forces_out=f)
+    u, itn, conv_n = solve_newton(model, r, u, max_iterations=max_iterations, forces_out=f)
     return u, f, its + itn, conv & conv_n
 
 

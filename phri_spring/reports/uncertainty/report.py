@@ -89,7 +89,7 @@ def monte_carlo_summary_line(output, *, samples: int, elements: int, draws: int,
                              not_converged: int, perturbed: str,
                              max_pain_ratio_p95: float = math.nan,
                              max_pain_ratio_time: float = math.nan,
-                             tissue_law: str = "") -> str:
+                             tissue_law: str = "", dose: Optional[tuple] = None) -> str:
     """The line ``phri simulate --uncertainty`` ends with: sizes, draws, the peak.
 
     Parameters
@@ -108,6 +108,9 @@ def monte_carlo_summary_line(output, *, samples: int, elements: int, draws: int,
     tissue_law : str
         The arm and its tissue law the draws ran (``compliant arm: exponential tissue law,
         beta 150 1/m``); '' leaves it out.
+    dose : tuple, optional
+        With a tolerance curve: ``(curve name, p5, p50, p95)`` of the largest dose over
+        the elements at the end of the log [-].
     """
     peak = (f"; 95th percentile of peak pressure up to {100 * max_pain_ratio_p95:.3g}%"
             f" of the pain threshold (t = {max_pain_ratio_time:g} s)"
@@ -117,4 +120,12 @@ def monte_carlo_summary_line(output, *, samples: int, elements: int, draws: int,
     return (f"wrote {output} ({samples:,} samples x {elements} elements, "
             f"5/50/95th percentiles over {draws} Monte Carlo draws, seed {seed}"
             f"{bad}; {tissue_law + '; ' if tissue_law else ''}perturbed: {perturbed or 'none'})"
-            f"{peak}")
+            f"{peak}{_dose_clause(dose)}")
+
+
+def _dose_clause(dose) -> str:
+    if dose is None:
+        return ""
+    name, p5, p50, p95 = dose
+    return (f"; dose ({name}) at the end, largest over the elements: p5 {p5:.3g}, "
+            f"p50 {p50:.3g}, p95 {p95:.3g}")

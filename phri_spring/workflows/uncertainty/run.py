@@ -13,7 +13,10 @@ Each draw's chunk is solved, and its peak pressure / pain threshold computed,
 by ``simulate``'s own chunk path (:func:`.pipeline.solve_chunk`,
 :func:`.pipeline.per_sample_extras`), and :func:`simulate_uncertainty_file`
 streams a log through the setup, reader and writer ``simulate`` uses
-(:func:`.log_run.open_log_run`). Every output names what scattered.
+(:func:`.log_run.open_log_run`). Every output names what scattered. With a tolerance
+curve (the config's ``tolerance.curve`` or ``--tolerance``), every draw follows its own
+dose over the log and the table gets the percentiles over the draws of ``dose_max``
+(docs/tolerance.md).
 
 The bands of ``phri compare --uncertainty`` are in :mod:`.compare_bands`, a
 design study's Monte Carlo and Sobol indices in :mod:`.design_uncertainty`;
@@ -35,7 +38,7 @@ from ...physics.friction.states import interface_mu
 from ...physics.contact.solver import FactorCache
 from ...reports.tissue_law_text import arm_law_text
 from ...reports.uncertainty.report import monte_carlo_summary_line
-from ..common import cuff_wrench, model_from_config
+from ..common import cuff_wrench, history_model, model_from_config
 from ..compare.bands import compare_bands, write_compare_bands  # noqa: F401 - importable here
 from ..design.uncertainty import sobol_indices, study_uncertainty  # noqa: F401 - importable here
 from ..log_run import open_log_run
@@ -48,10 +51,12 @@ __all__ = ["UncertainInputs", "uncertain_inputs", "monte_carlo", "MonteCarloResu
            "MonteCarloStream", "MonteCarloRun", "simulate_uncertainty_file",
            "percentile_columns", "RATIO_COLUMNS", "study_uncertainty", "PERCENTILES",
            "write_monte_carlo", "sobol_indices", "compare_bands", "write_compare_bands",
-           "parse_sd", "run_cli"]
+           "parse_sd", "run_cli", "DOSE_COLUMNS", "dose_percentiles"]
 
 #: columns of the percentile table after the forces: peak pressure / pain threshold [-]
 RATIO_COLUMNS = tuple(f"peak_pressure_to_pain_threshold_p{q:g}" for q in PERCENTILES)
+#: columns after the ratios with a tolerance curve: the largest dose over the elements [-]
+DOSE_COLUMNS = tuple(f"dose_max_p{q:g}" for q in PERCENTILES)
 #: (draws x samples x elements) values held at once
 _CHUNK_ENTRIES = 1 << 23
 
@@ -103,6 +108,10 @@ class MonteCarloStream:
     arm : str
     inputs : UncertainInputs, optional
         Default: the tissue SD from the config's CSV, no other scatter.
+    tolerance : ToleranceCurve or str, optional
+        Follow every draw's dose against this curve (an
+        :class:`~phri_spring.physics.response.tolerance.Exposure` per draw, carried
+        from block to block); the blocks must then come with their times, in log order.
 
     Attributes
     ----------
@@ -114,10 +123,15 @@ class MonteCarloStream:
         The arm's tissue law, e.g. ``exponential tissue law, beta 150 1/m``.
     not_converged : int
         (draw, sample) pairs the solver did not converge on so far (left out).
+    exposures : list or None
+        With a curve: each draw's exposure so far.
+    dose : ndarray or None
+        With a curve: the percentiles over the draws of the largest dose over the
+        elements at each sample of the last block, shape (3, k) [-].
     """
 
     def __init__(self, cfg: Config, *, draws: int, seed: int = 0, arm: str = "compliant",
-                 inputs: Optional[UncertainInputs] = None):
+                 inputs: Optional[UncertainInputs] = None, tolerance=None):
         if int(draws) < 2:
             raise UsageError(f"expected at least 2 draws, got {draws}", key="--uncertainty")
         self.cfg, self.draws, self.seed = cfg, int(draws), int(seed)
@@ -131,9 +145,18 @@ class MonteCarloStream:
             self.models = [model_from_config(c, arm) for c in cfgs]
         else:   # nothing this arm uses scatters: every draw's model is the config's own
             self.models = [model_from_config(cfg, arm)] * self.draws
+        if self._history and self.draws > 1 and self.models[0] is self.models[1]:
+            # a relaxing tissue remembers its draw's own samples: a model each
+            self.models = [model_from_config(cfg, arm) for _ in range(self.draws)]
         self.noise_sd = inputs.noise_sd
         self.block_samples = max(1, _CHUNK_ENTRIES // (self.draws * cfg.n_elements))
         self.not_converged = 0
+        self.exposures, self.dose = None, None
+        if tolerance is not None:
+            from ...physics.response.tolerance import Exposure
+
+            self.exposures = [Exposure(tolerance, cfg.n_elements, m.pain_threshold_kpa)
+                              for m in self.models]
         self._paths = {}   # draw -> its cache, kept only with friction (the path's state)
 
     def _cache(self, d: int) -> FactorCache:
@@ -145,16 +168,29 @@ class MonteCarloStream:
             self._paths[d] = FactorCache(64)
         return self._paths[d]
 
-    def block(self, number: int, wrench_lc):
+    @property
+    def _history(self) -> bool:
+        return getattr(self.models[0], "has_history", False)
+
+    def block(self, number: int, wrench_lc, time=None, activation=None):
         """Percentiles of block ``number`` (its samples in the load cell's units, (k, 6)).
 
         Returns the force percentiles, shape (3, k, n) [N], and those of the
-        peak pressure / pain threshold, shape (3, k) [-].
+        peak pressure / pain threshold, shape (3, k) [-]. With a curve or a tissue with a
+        history (``tissue.relaxation``, an ``activation`` (k,) 0..1 as a log's column),
+        ``time`` (k,) [s] is needed, blocks come in log order and every draw carries its
+        own history; with a curve :attr:`dose` holds the block's dose percentiles.
         """
         cfg, n = self.cfg, self.cfg.n_elements
         w = np.atleast_2d(np.asarray(wrench_lc, dtype=float))
+        if activation is not None and not self._history:   # as simulate does with the column
+            self.models = [history_model(m, cfg) for m in self.models]
+        if (self.exposures is not None or self._history) and time is None:
+            raise ValueError("a stream with a tolerance curve or a tissue history needs "
+                             "each block's times")
         F = np.empty((self.draws, len(w), n))
         R = np.empty((self.draws, len(w)))
+        D = None if self.exposures is None else np.empty((self.draws, len(w)))
         for d in range(self.draws):
             wd = w
             if self.noise_sd.any():
@@ -163,41 +199,79 @@ class MonteCarloStream:
             # a cache of its own: a draw's model is not the next draw's; with friction the
             # draw's cache also carries its loading path from block to block
             chunk = solve_chunk(self.models[d], cuff_wrench(cfg, wd), None,
-                                cfg.max_iterations, self._cache(d))
+                                cfg.max_iterations, self._cache(d), False, time, activation)
             F[d] = chunk.forces
             R[d] = chunk.extras()[0]["peak_pressure_to_pain_threshold"]
             self.not_converged += int((~chunk.solution.converged).sum())
+            if D is not None:   # the draw's own run: its dose goes on from its last block
+                D[d] = self.exposures[d].add(time, chunk.forces,
+                                             scale=self.models[d].inv_area_kpa)[0]
         q = np.array(PERCENTILES)
         pct = np.nanpercentile if self.not_converged else np.percentile
+        if D is not None:
+            self.dose = dose_percentiles(D, q)
         return pct(F, q, axis=0), pct(R, q, axis=0)
 
     def blocks(self, chunks):
         """Percentiles of a log read in chunks of any size.
 
-        ``chunks`` yields ``(time, wrench_lc)`` pairs, shapes (k,) and (k, 6);
+        ``chunks`` yields ``(time, wrench_lc)`` pairs, shapes (k,) and (k, 6), or
+        ``(time, wrench_lc, activation)`` with activation (k,) or None;
         yields ``(time, force percentiles, ratio percentiles)`` block by block
         (see :meth:`block`), holding at most one block of samples.
         """
-        times, wrenches, held, number = [], [], 0, 0
+        times, wrenches, acts, held, number = [], [], [], 0, 0
         k = self.block_samples
-        for t, w in chunks:
+        for chunk in chunks:
+            t, w = chunk[0], chunk[1]
+            a = chunk[2] if len(chunk) > 2 else None
             times.append(np.asarray(t, dtype=float))
             wrenches.append(np.atleast_2d(np.asarray(w, dtype=float)))
+            acts.append(None if a is None else np.asarray(a, dtype=float))
             held += len(times[-1])
             if held < k:
                 continue
-            t_all, w_all = np.concatenate(times), np.concatenate(wrenches)   # once a chunk
+            t_all, w_all, a_all = (np.concatenate(times), np.concatenate(wrenches),
+                                   _joined(acts, times))                  # once a chunk
             start = 0
             while held - start >= k:
-                yield (t_all[start:start + k], *self.block(number, w_all[start:start + k]))
+                tk = t_all[start:start + k]
+                ak = None if a_all is None else a_all[start:start + k]
+                yield (tk, *self.block(number, w_all[start:start + k], tk, ak))
                 number, start = number + 1, start + k
             times, wrenches, held = [t_all[start:]], [w_all[start:]], held - start
+            acts = [None if a_all is None else a_all[start:]]
         if held:
-            yield (np.concatenate(times), *self.block(number, np.concatenate(wrenches)))
+            tk = np.concatenate(times)
+            yield (tk, *self.block(number, np.concatenate(wrenches), tk, _joined(acts, times)))
+
+
+def _joined(acts, times):
+    """The activations of held chunks as one array (0 where a chunk had none), or None."""
+    if all(a is None for a in acts):
+        return None
+    return np.concatenate([np.zeros(len(t)) if a is None else a for a, t in zip(acts, times)])
+
+
+def dose_percentiles(doses, q) -> np.ndarray:
+    """Percentiles ``q`` over the draws (axis 0) of doses that may be infinite (a
+    time-independent curve once pressed), shape (len(q), k): linear between the two draws
+    around each rank as ``np.percentile``, where two infinite doses give an infinite one
+    (``np.percentile`` gives NaN there: inf - inf)."""
+    s = np.sort(np.asarray(doses, dtype=float), axis=0)
+    pos = np.asarray(q, dtype=float) / 100.0 * (len(s) - 1)
+    lo = np.floor(pos).astype(np.intp)
+    hi = np.minimum(lo + 1, len(s) - 1)
+    g = (pos - lo)[:, None]
+    a, b = s[lo], s[hi]
+    with np.errstate(invalid="ignore"):
+        between = a + (b - a) * g
+    return np.where((a == b) | (g == 0), a, between)
 
 
 def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str = "compliant",
-                inputs: Optional[UncertainInputs] = None) -> MonteCarloResult:
+                inputs: Optional[UncertainInputs] = None, time=None,
+                activation=None) -> MonteCarloResult:
     """Monte Carlo percentiles of the forces for every sample of a log.
 
     Parameters
@@ -214,6 +288,10 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
     arm : str
     inputs : UncertainInputs, optional
         Default: the tissue SD from the config's CSV, no other scatter.
+    time : array_like, shape (m,), optional
+        Sample times [s]: needed by a relaxing tissue (``tissue.relaxation``).
+    activation : array_like, shape (m,), optional
+        Muscle activation 0..1 of every sample (docs/model.md section 15.2).
 
     Returns
     -------
@@ -226,7 +304,9 @@ def monte_carlo(cfg: Config, wrench_lc, *, draws: int, seed: int = 0, arm: str =
     out_r = np.empty((3, m))
     for c, s in enumerate(range(0, m, mc.block_samples)):
         e = min(m, s + mc.block_samples)
-        out_f[:, s:e], out_r[:, s:e] = mc.block(c, w[s:e])
+        out_f[:, s:e], out_r[:, s:e] = mc.block(
+            c, w[s:e], None if time is None else np.asarray(time, dtype=float)[s:e],
+            None if activation is None else np.asarray(activation, dtype=float)[s:e])
     return MonteCarloResult(out_f, out_r, mc.draws, mc.not_converged, tuple(cfg.labels),
                             mc.perturbed, mc.tissue_law)
 
@@ -275,13 +355,15 @@ class MonteCarloRun:
     perturbed: str = ""
     #: the arm and its tissue law (``compliant arm: exponential tissue law, beta 150 1/m``)
     tissue_law: str = ""
+    #: with a tolerance curve: (its name, p5, p50, p95 of the largest dose at the end) [-]
+    dose: Optional[tuple] = None
 
     def summary_line(self) -> str:
         """The line ``phri simulate --uncertainty`` ends with: sizes, draws, the peak."""
         return monte_carlo_summary_line(
             self.output, samples=self.samples, elements=len(self.labels), draws=self.draws,
             seed=self.seed, not_converged=self.not_converged, perturbed=self.perturbed,
-            tissue_law=self.tissue_law,
+            tissue_law=self.tissue_law, dose=self.dose,
             max_pain_ratio_p95=self.max_pain_ratio_p95,
             max_pain_ratio_time=self.max_pain_ratio_time)
 
@@ -295,7 +377,7 @@ def percentile_columns(labels) -> list:
 def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
                               arm: str = "compliant", columns: Optional[dict] = None,
                               group: Optional[str] = None, sd: Optional[str] = None,
-                              progress=None) -> MonteCarloRun:
+                              progress=None, tolerance=None) -> MonteCarloRun:
     """``phri simulate --uncertainty N``: stream a log through :class:`MonteCarloStream`.
 
     The log is read, and the table written, as ``simulate`` does
@@ -305,23 +387,34 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
     CSV forces to 1 uN) is written block by block into a temporary file that
     replaces ``output`` at the end, so that a log of any length runs in
     bounded memory. ``progress(samples_done, total)`` is called after each block.
+    ``tolerance`` (default the config's ``tolerance.curve``) adds :data:`DOSE_COLUMNS`,
+    each draw's dose followed over the whole log (docs/tolerance.md).
     """
     import pyarrow as pa
 
+    from ...io.config.tolerance import curve_option
+
     run = open_log_run(config, log, output, columns=columns, group=group)
     cfg = run.cfg
+    curve = curve_option(tolerance, cfg)
     inputs = uncertain_inputs(cfg, **parse_sd(sd))
-    mc = MonteCarloStream(cfg, draws=draws, seed=seed, arm=arm, inputs=inputs)
+    mc = MonteCarloStream(cfg, draws=draws, seed=seed, arm=arm, inputs=inputs, tolerance=curve)
     ratio = {name: pa.float64() for name in RATIO_COLUMNS}
+    if curve is not None:
+        ratio.update({name: pa.float64() for name in DOSE_COLUMNS})
+    dose_end = None
     total = run.count() if progress is not None else None
     samples, peak, peak_time = 0, -math.inf, math.nan
     with run.writer(percentile_columns(cfg.labels), ratio) as writer:
-        chunks = ((ch.time, ch.wrench) for ch in run.chunks())
+        chunks = ((ch.time, ch.wrench, ch.activation) for ch in run.chunks())
         for time, f_pct, r_pct in mc.blocks(chunks):
             k = len(time)
             # (3, k, n) -> (k, n, 3): each element's p5, p50, p95 side by side
-            writer.write(time, f_pct.transpose(1, 2, 0).reshape(k, -1),
-                         dict(zip(ratio, r_pct)))
+            extra = dict(zip(RATIO_COLUMNS, r_pct))
+            if curve is not None:
+                extra.update(zip(DOSE_COLUMNS, mc.dose))
+                dose_end = mc.dose[:, -1]
+            writer.write(time, f_pct.transpose(1, 2, 0).reshape(k, -1), extra)
             if np.isfinite(r_pct[2]).any() and np.nanmax(r_pct[2]) > peak:
                 j = int(np.nanargmax(r_pct[2]))
                 peak, peak_time = float(r_pct[2][j]), float(time[j])
@@ -330,14 +423,16 @@ def simulate_uncertainty_file(config, log, output, *, draws: int, seed: int = 0,
                 progress(samples, total)
     return MonteCarloRun(run.output, samples, mc.draws, mc.not_converged, tuple(cfg.labels),
                          mc.seed, peak if samples and np.isfinite(peak) else math.nan,
-                         peak_time, mc.perturbed, mc.tissue_law)
+                         peak_time, mc.perturbed, mc.tissue_law,
+                         None if dose_end is None else (curve.name, *map(float, dose_end)))
 
 
 def run_cli(config, log, output, arm, baseline, columns, draws, sd, seed,
-            progress=None, group: Optional[str] = None) -> "MonteCarloRun":
+            progress=None, group: Optional[str] = None, tolerance=None) -> "MonteCarloRun":
     """The ``--uncertainty`` branch of ``phri simulate`` (absolute forces only)."""
     if baseline != "none":
         raise UsageError(f"--uncertainty gives percentiles of absolute forces; expected "
                          f"--baseline none, got {baseline}", key="--baseline")
     return simulate_uncertainty_file(config, log, output, draws=draws, seed=seed, arm=arm,
-                                     columns=columns, group=group, sd=sd, progress=progress)
+                                     columns=columns, group=group, sd=sd, progress=progress,
+                                     tolerance=tolerance)

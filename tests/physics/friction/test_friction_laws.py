@@ -178,21 +178,6 @@ def test_blocks_and_events_agree_with_the_exponential_law():
         assert np.array_equal(state.cls, cls[i]), i
 
 
-def test_a_law_with_history_and_friction_is_refused_in_one_line():
-    from phri_spring.errors import ModelInputError
-    from phri_spring.physics.laws import LinearLaw
-
-    class Remembering(LinearLaw):
-        name = "remembering_test_law"
-        is_linear = False
-        has_state = True
-
-    g = cuff_geometry([0.0], 0.045, 0.025, 75.0, 35.0, 7)
-    with pytest.raises(ModelInputError, match="friction_coefficient.*history") as err:
-        build_model(g, 5e4, 1e6, law=Remembering, friction_coefficient=0.5)
-    assert "\n" not in str(err.value)
-
-
 def test_simulate_in_memory_with_friction_gives_the_reasons_in_its_frame():
     import yaml
     from pathlib import Path

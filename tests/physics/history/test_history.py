@@ -177,6 +177,28 @@ def test_a_rested_tissue_carries_the_relaxed_load():
     np.testing.assert_allclose(sol.forces[0], ref.forces, rtol=1e-8, atol=1e-9)
 
 
+def test_solve_rested_answers_every_sample_relaxed_whatever_came_before():
+    """solve_rested: each wrench of a block is the relaxed elastic model's answer (G_inf k),
+    independently of the samples before it and of the model's own history (kept)."""
+    base = _model(k_c=1e5)
+    prony = Prony([0.3, 0.2], [0.1, 1.0])
+    hm = HistoryModel(base, prony)
+    hm.solve_log(np.tile([0.0, -20.0, 0.0, 0.0, 0.0, 0.0], (3, 1)), [0.0, 0.01, 0.02])
+    before = hm.state.copy()
+    W, _ = _log(5, 6)
+    sol = hm.solve_rested(W)
+    relaxed = build_model(base.geometry, 3e3 * prony.relaxed, 1e5, strap_tension=15.0)
+    relaxed = relaxed.__class__(**{**{f: getattr(relaxed, f) for f in
+                                      ("geometry", "arm", "k", "k_shear", "K_s", "f0", "W_pre",
+                                       "strap_model", "pain_threshold_kpa")},
+                                   "delta0": base.delta0})
+    for i in range(len(W)):
+        np.testing.assert_allclose(sol.forces[i], solve(relaxed, W[i]).forces, rtol=1e-8,
+                                   atol=1e-9)
+    np.testing.assert_array_equal(hm.state.h, before.h)        # the history is untouched
+    assert hm.state.time == before.time
+
+
 # ---------------------------------------------------------------- one element, closed forms
 def _one_element(times, r_z, Ms_zz, prony, k=2000.0):
     """One element along z (rigid cuff, linear tissue k [N/m]) with a parallel spring

@@ -1,7 +1,7 @@
 """``phri fit-stiffness --law qlv``: quasi-linear viscoelastic tissue from indenter trials.
 
 References are independent of the fit: the model force of a trial is checked against the
-O(m^2) hereditary integral of :mod:`phri_spring.physics.history.relaxation` and against the closed
+O(m^2) hereditary integral of ``tests/support/reference_qlv.py`` and against the closed
 form of a ramp written out here; the synthetic trials compute the force in closed form over
 the depth path (:mod:`phri_spring.synthetic.indenter_qlv`), not with the recursion the fit
 uses; recovered parameters are compared with the ones the trials were made with.
@@ -22,12 +22,13 @@ from phri_spring.physics.indentation.qlv import (ELASTIC_LAWS, elastic_force, fi
 from phri_spring.physics.indentation.qlv_window import (HOLD_MIN_S, check_identifiable,
                                                         qlv_window)
 from phri_spring.physics.indentation.signal import TrialError
-from phri_spring.physics.history.relaxation import Prony, hereditary_force
+from phri_spring.physics.history.relaxation import Prony
 from phri_spring.synthetic.indenter import write_trials
 from phri_spring.synthetic.indenter_qlv import (qlv_path_force, ramp_hold_path,
                                                 synth_qlv_trial)
 
 from support.helpers import REPO, assert_one_line_error, run_phri, stderr_of
+from support.reference_qlv import hereditary_force
 
 EXAMPLE = REPO / "examples" / "indenter_qlv"
 #: what examples/make_indenter_qlv_data.py made the example with

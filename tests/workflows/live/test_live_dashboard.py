@@ -170,7 +170,8 @@ def test_the_page_comes_from_the_installed_package_and_loads_nothing_from_elsewh
             urllib.request.urlopen(dash.url + "app.js", timeout=10)
         assert exc.value.code == 404
     assert state == {"meta": {"labels": LABELS, "row_labels": ["A", "B", "C"], "n_angles": 7,
-                              "alarm": 0.8, "title": "t"}, "snapshot": None, "clients": 0}
+                              "alarm": 0.8, "title": "t", "tolerance": None,
+                              "dose_alarm": None}, "snapshot": None, "clients": 0}
     for text in (html, served):
         assert "http://" not in text and "https://" not in text
         # no script, style, image or frame from a URL, no CSS import: everything is inline
