@@ -245,6 +245,8 @@ def _solve_steps(model: HistoryModel, wrench, dt, activation, state: HistoryStat
     A, Bc = step_coefficients(model.relaxation, dt)
     s = (np.ones(m) if activation is None
          else activation_scale(np.asarray(activation, dtype=float), model.activation_factor))
+    if not np.any(model.relaxation.g) and np.all(s == 1.0):
+        return _elastic_steps(model, W, st_=state, max_iterations=max_iterations)
     with np.errstate(over="ignore", invalid="ignore"):
         r = W + model.base.W_pre
     u = np.empty((m, 6))
@@ -265,6 +267,28 @@ def _solve_steps(model: HistoryModel, wrench, dt, activation, state: HistoryStat
         contact[~conv] = False
     return Solution(u=u, forces=f, iterations=its, converged=conv, contact=contact,
                     tangential=tangential)
+
+
+def _elastic_steps(model: HistoryModel, W, st_: HistoryState, max_iterations: int) -> Solution:
+    """Samples without relaxation and without activation: the elastic spring model's own
+    solve (the tissue has no memory to carry), its answer exactly; ``st_`` is left where a
+    sample solved by the loop would leave it (the last converged displacement and elastic
+    response) so that a later sample with relaxation or activation continues from it."""
+    from ..contact.solver import solve
+
+    base = model.base
+    sol = solve(base, W, max_iterations=max_iterations)
+    tangential = np.asarray(base.shear_components(sol.u, sol.contact), dtype=float)
+    ok = np.flatnonzero(sol.converged)
+    if ok.size:
+        last = ok[-1]
+        st_.u[:] = sol.u[last]
+        st_.Fe[:] = sol.forces[last]
+        st_.Se[:] = 0.0
+    if not sol.converged.all():
+        tangential[~sol.converged] = np.nan
+    return Solution(u=sol.u, forces=sol.forces, iterations=sol.iterations,
+                    converged=sol.converged, contact=sol.contact, tangential=tangential)
 
 
 class HistorySolver:

@@ -276,3 +276,17 @@ def test_a_time_that_goes_back_is_no_time():
     glitch = HistoryModel(base, prony).solve_log(W, [0.0, 0.1, 0.2, 0.15, 0.3, 0.4])
     same = HistoryModel(base, prony).solve_log(W, [0.0, 0.1, 0.2, 0.2, 0.35, 0.45])
     np.testing.assert_allclose(glitch.forces, same.forces, atol=1e-12)
+
+
+def test_the_sample_loop_without_memory_is_the_elastic_model_too():
+    """With neither relaxation nor activation the model hands the samples to the elastic
+    solver (identical answers); the sample loop itself, run by an activation of 1e-12,
+    lands on the same equilibrium to the solvers' residual tolerance."""
+    base = _model(1e5, "exponential", 80.0)
+    W, t = _log(7, 200)
+    ref = solve(base, W)
+    loop = HistoryModel(base, None, 2.0).solve_log(W, t, np.full(len(t), 1e-12))
+    assert loop.converged.all() and ref.converged.all()
+    np.testing.assert_allclose(loop.forces, ref.forces, rtol=0, atol=1e-7)
+    plain = HistoryModel(base, None).solve_log(W, t)
+    np.testing.assert_array_equal(plain.forces, ref.forces)
