@@ -334,9 +334,15 @@ class ScanCuff:
 
 
 def scan_cuff(scan_config: dict, rows_x, row_widths, theta, span, config_dir=".", *,
-              strap_x=None, config_path=None, row_names=None) -> ScanCuff:
+              strap_x=None, config_path=None, row_names=None, layout=None) -> ScanCuff:
     """:func:`scan_elements` and, with ``strap_x`` [m], the scan's section there for the
     strap's handles (the scan cut by the plane at ``strap_x``), the scan read once.
+
+    With ``layout`` (a :class:`~phri_spring.physics.cuff.patches.PatchLayout`: sensor patches
+    anywhere) the elements are its patches instead of the grid of ``rows_x`` x ``theta``:
+    each patch placed on the scan's cut at its own x as a one-element row of its length and
+    angular width, in the layout's order; the outlines (and radii) are per distinct x, by
+    increasing x.
 
     Raises as :func:`scan_elements`; a strap plane that misses the scan or is not closed
     around the axis is a :class:`DataError` naming the file and ``strap.axial_position``.
@@ -347,8 +353,11 @@ def scan_cuff(scan_config: dict, rows_x, row_widths, theta, span, config_dir="."
     scan = load_scan(scan_config, config_dir, config_path=config_path)
     try:
         mesh = prepare_scan_mesh(scan.vertices, scan.faces)
-        elements = scan_element_geometry(mesh, None, rows_x, row_widths, theta, span,
-                                         smoothing=smoothing, row_names=row_names)
+        if layout is None:
+            elements = scan_element_geometry(mesh, None, rows_x, row_widths, theta, span,
+                                             smoothing=smoothing, row_names=row_names)
+        else:
+            elements = _layout_elements(mesh, layout, smoothing)
     except ModelInputError as exc:
         if exc.quantity != "scan":
             raise
@@ -366,3 +375,26 @@ def scan_cuff(scan_config: dict, rows_x, row_widths, theta, span, config_dir="."
     perimeter = [float(np.linalg.norm(np.roll(yz, -1, axis=0) - yz, axis=1).sum())
                  for yz in elements.outlines]
     return ScanCuff(elements, strap, scan.file, np.array(perimeter) / (2 * np.pi))
+
+
+def _layout_elements(mesh, layout, smoothing) -> ScanElements:
+    """The :class:`ScanElements` of a free patch layout on a prepared scan mesh: the patches
+    sharing an axial position and a length are placed together (one cut of the scan)."""
+    x, ln = np.asarray(layout.x, float), np.asarray(layout.length, float)
+    th, w = np.asarray(layout.theta, float), np.asarray(layout.width, float)
+    n = len(x)
+    points, normals = np.empty((n, 3)), np.empty((n, 3))
+    areas, turning, arcs = np.empty(n), np.empty(n), np.empty(n)
+    outlines, smooth = {}, {}
+    for xv, lv in sorted(set(zip(x.tolist(), ln.tolist()))):
+        idx = np.flatnonzero((x == xv) & (ln == lv))
+        el = scan_element_geometry(mesh, None, [xv], [lv], th[idx], w[idx], smoothing=smoothing,
+                                   row_names=[f"{layout.labels[idx[0]]} (patch)"])
+        points[idx], normals[idx] = el.points, el.normals
+        areas[idx], turning[idx], arcs[idx] = el.areas, el.turning, el.arcs
+        outlines.setdefault(xv, el.outlines[0])
+        smooth.setdefault(xv, float(el.smoothing[0]))
+    order = sorted(outlines)
+    return ScanElements(points=points, normals=normals, areas=areas, turning=turning,
+                        arcs=arcs, outlines=tuple(outlines[k] for k in order),
+                        smoothing=np.array([smooth[k] for k in order]))

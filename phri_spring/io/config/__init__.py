@@ -260,13 +260,8 @@ def config_from_dict(data: Any, *, path=None, base_dir=None) -> Config:
                           "path over the scan is not defined); use hoop or handles",
                           file=path, key="geometry.scan")
     if g.scan is not None:
-        if free:
-            raise ConfigError("sensor patches on a scanned limb are not available yet (a patch "
-                              "is placed on a section's outline); give the scan's elements as "
-                              "geometry.rows and geometry.angles, or describe the limb by "
-                              "geometry.section", file=path, key="cuff.patches")
         width = angles[3] if angles[3] is not None else angles[1]
-        scan = read_scan(g, st, row_x, row_width, width, base, path, row_labels)
+        scan = read_scan(g, st, row_x, row_width, width, base, path, row_labels, layout)
         radius = scan.radius
 
     law, law_cls, law_params = _tissue_law(root.tissue.law, law_values, n_rows, n_ang,

@@ -39,17 +39,22 @@ def check_scan_alone(g, path) -> None:
                               key=f"geometry.{key}")
 
 
-def read_scan(g, strap, row_x, row_width, width_deg: float, base, path, row_labels):
-    """``geometry.scan`` read and the elements placed on it (:class:`~.scan.ScanCuff`), with
-    the strap's section for the ``handles`` model at its axial position (default the rows'
-    mean x, as the model puts it). One-line errors naming the file or the key."""
+def read_scan(g, strap, row_x, row_width, width_deg: float, base, path, row_labels,
+              layout=None):
+    """``geometry.scan`` read and the elements placed on it (:class:`~.scan.ScanCuff`): the
+    grid's, or with ``layout`` (``cuff.patches``) the patches'; with the strap's section for
+    the ``handles`` model at its axial position (default the rows' or patches' mean x, as
+    the model puts it). One-line errors naming the file or the key."""
     from ..scan import scan_cuff
 
-    theta = np.radians(g.angles.start + g.angles.step * np.arange(g.angles.count))
     strap_x = None
     if strap.model == "handles":
-        strap_x = float(np.mean(row_x)) if strap.axial_position is None \
-            else float(strap.axial_position)
+        mean_x = float(np.mean(row_x if layout is None else layout.x))
+        strap_x = mean_x if strap.axial_position is None else float(strap.axial_position)
+    if layout is not None:
+        return scan_cuff(g.scan, None, None, None, None, base, strap_x=strap_x,
+                         config_path=path, layout=layout)
+    theta = np.radians(g.angles.start + g.angles.step * np.arange(g.angles.count))
     return scan_cuff(g.scan, row_x, row_width, theta,
                      np.full(g.angles.count, math.radians(width_deg)), base, strap_x=strap_x,
                      config_path=path, row_names=row_labels)
@@ -61,6 +66,18 @@ def scan_geometry(cfg):
     from ...physics.cuff.geometry import CuffGeometry
 
     el = cfg.scan.elements
+    if cfg.patches is not None:   # sensor patches anywhere on the scan
+        from dataclasses import replace
+
+        from ...physics.cuff.patches import hoop_shares
+
+        lay = cfg.patches
+        geom = CuffGeometry.from_elements(
+            lay.labels, ("",), 1, lay.n, x=lay.x, row_width=lay.length, theta=lay.theta,
+            span=lay.width, points=el.points, normals=el.normals, areas=el.areas,
+            turning=el.turning, strap_section=cfg.scan.strap_section)
+        return replace(geom, hoop_share=hoop_shares(lay.x, lay.length), free_layout=True,
+                       handles_radius=None)
     n_rows, n_ang = len(cfg.row_labels), int(cfg.angle_count)
     width = cfg.angle_step_deg if cfg.angle_width_deg is None else cfg.angle_width_deg
     theta = np.radians(cfg.angle_start_deg + cfg.angle_step_deg * np.arange(n_ang))
@@ -172,13 +189,17 @@ def config_outlines(cfg, x=None, k: int = 256) -> list:
     """The skin outline (k, 2) of (y, z) [m] of a config's limb at each axial position ``x``
     (default: its rows' ``row_x``), whatever the geometry: circles of ``geometry.radius``,
     ``geometry.section`` (per row, interpolated in x between rows) or a scan (the scan's
-    cut by each row's plane, as the elements were placed on it; rows only)."""
+    cut by each row's or patch's plane, as the elements were placed on it; at another x the
+    nearest of those cuts)."""
     from ...physics.limb.sections import outlines_at
 
     if cfg.scan is not None:
-        if x is not None:
-            raise ValueError("config_outlines: a scan's outlines are known at its rows only")
-        return [np.asarray(yz, dtype=float) for yz in cfg.scan.elements.outlines]
+        outs = [np.asarray(yz, dtype=float) for yz in cfg.scan.elements.outlines]
+        if x is None:
+            return outs
+        # the scan is cut where the elements were placed: the nearest of those cuts
+        known = np.asarray(cfg.row_x if cfg.patches is None else cfg.patch_row_x, dtype=float)
+        return [outs[int(np.argmin(np.abs(known - xv)))] for xv in np.atleast_1d(x)]
     row_x = cfg.row_x if cfg.patches is None else cfg.patch_row_x
     radius = cfg.radius if cfg.sections is None else None
     return outlines_at(row_x if x is None else x, row_x, cfg.sections, radius, k=k)

@@ -195,7 +195,13 @@ def patch_config_geometry(g, value, base: Path, path):
                               key="geometry.rows")
     else:
         row_x = np.zeros(1)
-    sections, radius, taper = geometry_sections(g, len(row_x), path)
     layout = patch_layout(value, base, path)
+    if g.scan is not None:   # the scan gives the shape: the outlines at the patches' x
+        from .geometry import check_scan_alone
+
+        check_scan_alone(g, path)
+        return (("",), np.unique(layout.x), None, np.array([float(np.sum(layout.length))]),
+                layout.labels, None, 0.0, layout, np.unique(layout.x))
+    sections, radius, taper = geometry_sections(g, len(row_x), path)
     return (("",), row_x, radius, np.array([float(np.sum(layout.length))]), layout.labels,
             sections, taper, layout, row_x)
