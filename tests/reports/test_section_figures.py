@@ -278,7 +278,8 @@ function element(id) {
     return () => {};
   }, set(t, name, v) { t[name] = v; return true; }});
   return {width: 520, height: 360, getContext: () => ctx, setAttribute() {},
-          querySelectorAll: () => [], innerHTML: "", textContent: "", className: ""};
+          querySelectorAll: () => [], innerHTML: "", textContent: "", className: "",
+          style: {}};
 }
 const els = {};
 const document = {getElementById: id => (els[id] = els[id] || element(id)),
