@@ -144,11 +144,14 @@ def test_activation_along_a_path_is_a_stiffer_tissue(tmp_path, case):
     """A held activation a is the tissue with its stiffness times s = 1 + (c - 1) a: on the
     coupled arm the layer's Young's modulus (a linear layer's every stiffness scales with
     it), on the spring arm with friction the tissue stiffness (the exponential law's k0,
-    its rate kept); a = 0 is the arm without the column (docs/model.md section 15.2)."""
+    its rate kept); a = 0 is the arm without the column (docs/model.md section 15.2). The
+    handles strap's preload is a wrench, the same for both configs (a hoop's is an offset
+    set on the resting tissue, which a config of stiffer tissue would set on that)."""
     E, k, c, a = 3.0e4, 414.0, 2.0, 0.4
     s = 1 + (c - 1) * a
     raw = harmony_dict()
     raw["tissue"]["activation_factor"] = c
+    raw["strap"] = {"tension": 15.0, "model": "handles"}
     if case == "coupled":
         raw["tissue"]["continuum"] = {"thickness": 0.02, "young_modulus": E}
         arm = "coupled"
@@ -179,7 +182,7 @@ def test_activation_along_a_path_is_a_stiffer_tissue(tmp_path, case):
     assert len(cols) == 21 * 6                       # normal, 2 shear, 3 resultant
     peak = np.nanmax(np.abs(outs["stiff"][cols].to_numpy()))
     ok = outs["stiff"]["converged"].to_numpy(dtype=bool)
-    assert ok.mean() > 0.9
+    assert ok.mean() > 0.6         # (the handles strap holds less than the hoop)
     np.testing.assert_array_equal(outs["act"]["converged"].to_numpy(dtype=bool), ok)
     # the two tissues' stiffnesses agree to round-off; the contact path can carry that on,
     # never beyond a tiny share of the peak

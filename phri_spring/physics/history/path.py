@@ -8,23 +8,28 @@ K_t becomes s K_t, its compliance C_t / s, and the traction integral a patch rep
 s = 1 + (c - 1) a (:func:`~phri_spring.physics.history.model.activation_scale`), so each
 sample is the coupled model of section 10 with
 
-    C(s) = C_t / s + C_c,     delta(s) = C(s) P0,
+    C(s) = C_t / s + C_c,     delta unchanged,
 
-C_c the cuff's compliance (unchanged: activation stiffens the tissue, not the cuff) and P0
-the strap's patch forces at zero wrench (the hoop preload is a force: the strap presses
-as hard on a contracted muscle). The reported normal force N_out C_t P does not depend
-on s. The interface's path state (which patches are released, stuck or sliding, and
-their slip) is carried from sample to sample as it is without activation: a change of
-stiffness moves the skin under a stuck patch, not the patch's tie. Consecutive samples
-with the same activation share one compliance form and are solved together.
+C_c the cuff's compliance (unchanged: activation stiffens the tissue, not the cuff) and
+delta the strap's preload offset, a displacement: the strap was tightened on the resting
+muscle, and contracting it under the strap presses the skin harder, as on the spring arms
+(section 15.2; with the handles strap the preload is a wrench, delta = 0). The reported
+normal force N_out C_t P does not depend on s for given patch forces. The interface's
+path state (which patches are released, stuck or sliding, and their slip) is carried from
+sample to sample as it is without activation: a change of stiffness moves the skin under
+a stuck patch, not the patch's tie. Consecutive samples with the same activation share
+one compliance form and are solved together.
 
 The spring arms with ``interface.friction_coefficient`` run along the same path solver
 (section 12); their tissue springs stiffened by s are the spring model built with the
 tissue stiffness s k_t (``scaled``: the cuff unchanged, the exponential law's k0 scaled
-and its rate kept, so that every tissue force is s times the unactivated one).
+and its rate kept, so that every tissue force is s times the unactivated one), their
+preload compressions kept as the unactivated model's.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 import numpy as np
 
@@ -85,12 +90,7 @@ class PathActivation:
         self._scaled = scaled
         self._form = interface_form(base)
         if scaled is None:
-            n, d = base.n, base.dofs
             self._C_cuff = np.diag(base.C - base.C_t).copy()   # the cuff's, diagonal
-            # the strap's patch forces at zero wrench (0 for the handles strap, whose
-            # preload is the wrench W_pre alone)
-            self._P0 = (np.linalg.solve(base.C, base.delta) if np.any(base.delta)
-                        else np.zeros(n * d))
         self._forms: dict[float, tuple[InterfaceForm, dict]] = {}
         self.state = None
 
@@ -111,13 +111,13 @@ class PathActivation:
             if s == 1.0:
                 form = f
             elif self._scaled is not None:
-                form = interface_form(self._scaled(s), like=f)
+                # the stiffened springs on the unactivated preload compressions
+                form = replace(interface_form(self._scaled(s), like=f), delta=f.delta)
             else:
                 C_skin = self.base.C_t / s
                 C = C_skin + np.diag(self._C_cuff)
-                form = InterfaceForm(n=f.n, d=f.d, C=C, C_skin=C_skin, T=f.T,
-                                     delta=C @ self._P0, W_pre=f.W_pre, mu=f.mu,
-                                     diagonal=False)
+                form = InterfaceForm(n=f.n, d=f.d, C=C, C_skin=C_skin, T=f.T, delta=f.delta,
+                                     W_pre=f.W_pre, mu=f.mu, diagonal=False)
             if len(self._forms) >= _FORMS:
                 self._forms.pop(next(iter(self._forms)))
             hit = self._forms[s] = (form, {})

@@ -1,11 +1,15 @@
 """Muscle activation on the coupled arm (docs/model.md section 15.2).
 
 The references are coupled models built independently with the tissue's stiffness scaled
-by s = 1 + (c - 1) a (K_t -> s K_t, the traction output N -> s N), solved by the coupled
+by s = 1 + (c - 1) a (K_t -> s K_t, the traction output N -> s N) on the unactivated
+model's preload offset (the strap tightened on the resting muscle), solved by the coupled
 arm's own path solver: a log at constant activation must be that model's answer; a log
 whose activation varies must be, sample by sample, the scaled model of that sample solved
 from the path state the sample before left; a = 0 is the model without activation.
 """
+
+import dataclasses
+
 
 import numpy as np
 import pytest
@@ -37,12 +41,18 @@ def _normal_output(g, K, dofs):
 
 
 def _model(s=1.0, dofs=3, k_c=2e5, strap="hoop", mu=None, output=False):
+    """The coupled model with its layer stiffened by s, preloaded as the unstiffened one."""
     g = _geometry()
     K = kernel_K(g, dofs=dofs)
     N = _normal_output(g, K, dofs) if output else None
-    return build_coupled_model(g, s * K, k_c, strap_model=strap, strap_tension=20.0,
-                               normal_output=None if N is None else s * N,
-                               friction_coefficient=mu)
+
+    def build(f):
+        return build_coupled_model(g, f * K, k_c, strap_model=strap, strap_tension=20.0,
+                                   normal_output=None if N is None else f * N,
+                                   friction_coefficient=mu)
+
+    model = build(s)
+    return model if s == 1.0 else dataclasses.replace(model, delta=build(1.0).delta)
 
 
 def _log(m, seed, scale=1.0):
@@ -66,7 +76,7 @@ def test_constant_activation_is_the_stiffened_model(case):
     ok = ref.converged
     np.testing.assert_array_equal(sol.converged, ok)   # no answer where the reference has none
     assert ok.mean() > 0.8
-    if case.get("dofs", 3) == 3:                 # (tied rotations hold 6-dof patches on)
+    if not case or case.get("mu"):               # (a stiffer or rotation-tied layer holds on)
         assert (~sol.contact).any()              # the log lifts patches off
     scale = np.abs(ref.forces[ok]).max()
     np.testing.assert_allclose(sol.forces[ok], ref.forces[ok], rtol=0, atol=1e-9 * scale)
@@ -112,14 +122,27 @@ def test_zero_activation_changes_nothing_and_chunks_continue():
 @settings(max_examples=15, deadline=None)
 @given(st.floats(0.0, 1.0), st.floats(1.0, 4.0), st.integers(0, 10_000))
 def test_a_stiffer_layer_under_a_rigid_cuff_carries_the_same_forces(a, c, seed):
-    # with a rigid cuff, stiffening every tissue spring by one factor scales the motions,
-    # not the forces (the program's objective scales by 1/s, its constraints stay)
-    W = _log(60, seed, scale=0.5)
-    base = _model(k_c=np.inf)
+    # with a rigid cuff and a preload that is a wrench (the handles strap), stiffening
+    # every tissue spring by one factor scales the motions, not the forces (the program's
+    # objective scales by 1/s, its constraints stay)
+    W = _log(60, seed, scale=0.3)
+    base = _model(k_c=np.inf, strap="handles")
     act = PathActivation(base, c).solve_log(W, None, np.full(len(W), a))
     ref = solve(base, W)
-    np.testing.assert_allclose(act.forces, ref.forces, rtol=0,
-                               atol=1e-8 * (np.abs(ref.forces).max() + 1.0))
+    ok = ref.converged
+    np.testing.assert_array_equal(act.converged, ok)
+    np.testing.assert_allclose(act.forces[ok], ref.forces[ok], rtol=0,
+                               atol=1e-8 * (np.abs(ref.forces[ok]).max() + 1.0))
+
+
+def test_a_contracted_muscle_under_the_hoop_presses_harder():
+    # the strap was tightened on the resting muscle: at zero wrench the stiffer layer under
+    # the same preload offset presses the skin harder (the arc of patches is not a full
+    # ring, so the cuff also moves and the rise is not uniform)
+    base = _model(k_c=np.inf)
+    rest = solve(base, np.zeros((1, 6))).forces
+    act = PathActivation(base, 3.0).solve_log(np.zeros((1, 6)), None, [0.5]).forces
+    assert act.sum() > 1.5 * rest.sum()
 
 
 def test_bad_factor_and_the_bonded_legacy_mode_are_refused():
