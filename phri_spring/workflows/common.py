@@ -125,9 +125,9 @@ def _rigid_model(cfg: Config, cache_dir=None):
 def history_model(model, cfg: Config):
     """``model`` solved sample by sample with the config's tissue relaxation and activation
     factor (:class:`~phri_spring.physics.history.model.HistoryModel`): the compliant arm. The rigid
-    arm has no tissue and is returned as it is; the linear coupled arm takes the activation
-    (:class:`~phri_spring.physics.history.path.PathActivation`), its relaxation is
-    refused in one line."""
+    arm has no tissue and is returned as it is; the linear coupled arm relaxes
+    (:class:`~phri_spring.physics.history.continuum.CoupledRelaxation`) or takes the
+    activation alone (:class:`~phri_spring.physics.history.path.PathActivation`)."""
     from ..physics.history.model import HistoryModel
     from ..physics.history.relaxation import Prony
 
@@ -139,10 +139,14 @@ def history_model(model, cfg: Config):
                           "(the band's tension is solved per sample, not along the tissue's "
                           "time path); use hoop or handles", file=cfg.path, key=key)
     coupled = not hasattr(model, "element")
-    if coupled and cfg.tissue_relaxation is not None:
-        raise ConfigError("relaxation acts on the spring arm's tissue springs; the coupled "
-                          "arm's continuum layer is elastic (use --arm compliant)",
-                          file=cfg.path, key=key)
+    if coupled and cfg.tissue_relaxation is not None:   # the layer relaxes (section 15.1)
+        from ..physics.history.continuum import CoupledRelaxation
+
+        try:
+            return CoupledRelaxation(model, Prony(*cfg.tissue_relaxation),
+                                     cfg.activation_factor)
+        except ModelInputError as exc:
+            raise ConfigError(str(exc), file=cfg.path, key=key) from None
     if coupled or (cfg.tissue_relaxation is None and cfg.friction_coefficient is not None):
         # activation along the interface's loading path: the coupled arm's layer, or the
         # spring arm's tissue springs with friction (docs/model.md section 15.2)
@@ -251,13 +255,13 @@ def _require_continuum(cfg: Config) -> None:
 
 
 def _coupled_refuses(cfg: Config) -> None:
-    """The coupled arm needs its continuum layer, and that layer is elastic: no relaxation
-    of tissue springs."""
+    """The coupled arm needs its continuum layer; a relaxing layer must be the linear one
+    (the hyperelastic layers' reduced models are elastic)."""
     _require_continuum(cfg)
-    if cfg.tissue_relaxation is not None:
-        raise ConfigError("relaxation acts on the spring arm's tissue springs; the coupled "
-                          "arm's continuum layer is elastic (use --arm compliant)",
-                          file=cfg.path, key="tissue.relaxation")
+    if cfg.tissue_relaxation is not None and CONTINUUM_LAW_MODELS[cfg.continuum_law].reduced:
+        raise ConfigError(f"relaxation with tissue.continuum.law {cfg.continuum_law}: its "
+                          f"reduced model is identified elastic; the linear continuum (or the "
+                          f"compliant arm) relaxes", file=cfg.path, key="tissue.relaxation")
 
 
 def _coupled_tissue_route(cfg: Config) -> str:
@@ -286,8 +290,10 @@ def _coupled_tissue_route(cfg: Config) -> str:
                                 "scatter",
                   unused_stiffening="the coupled arm's continuum is linear"))
 def _coupled_model(cfg: Config, cache_dir=None):
-    """The coupled tissue model of a config (docs/model.md section 10)."""
-    return coupled_model(cfg, cache_dir=cache_dir)
+    """The coupled tissue model of a config (docs/model.md section 10); with
+    ``tissue.relaxation``, its layer relaxing (section 15.1)."""
+    model = coupled_model(cfg, cache_dir=cache_dir)
+    return history_model(model, cfg) if cfg.tissue_relaxation is not None else model
 
 
 def coupled_model(cfg: Config, *, cache_dir=None, level=None):

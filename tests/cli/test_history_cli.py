@@ -103,10 +103,34 @@ def test_bad_relaxation_is_one_line_naming_the_key(tmp_path, relaxation, needle)
     assert "tissue.relaxation" in line and needle in line
 
 
-def test_the_coupled_arm_is_refused_in_one_line(tmp_path):
-    cfg = _config(tmp_path, relaxation={"fractions": [0.3], "times_s": [1.0]},
-                  continuum={"thickness": 0.02, "young_modulus": 3.0e4})
-    r = _run("simulate", cfg, _log(tmp_path / "l.csv"), "-o", tmp_path / "o.csv",
+def test_the_coupled_arm_relaxes_and_its_hyperelastic_layers_refuse(tmp_path):
+    """The linear layer relaxes (docs/model.md section 15.1): held, the load settles on the
+    softer relaxed layer, so the forces move after a step where the elastic arm's stay; a
+    hyperelastic layer is refused in one line before any identification."""
+    m = 300
+    t = 0.01 * np.arange(m)
+    W = np.zeros((m, 6))
+    W[50:, 1] = -20.0
+    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
+    df.insert(0, "time", t)
+    df.to_csv(tmp_path / "step.csv", index=False)
+    layer = {"thickness": 0.02, "young_modulus": 3.0e4}
+    out = {}
+    for name, extra in (("elastic", {}), ("relax", {"relaxation": {"fractions": [0.4],
+                                                                   "times_s": [0.5]}})):
+        (tmp_path / name).mkdir()
+        cfg = _config(tmp_path / name, continuum=layer, **extra)
+        r = _run("simulate", cfg, tmp_path / "step.csv", "-o", tmp_path / f"{name}.csv",
+                 "--arm", "coupled")
+        assert r.exit_code == 0, r.output
+        out[name] = pd.read_csv(tmp_path / f"{name}.csv")
+    labels = [c for c in out["elastic"].columns if c[0] in "ABC" and c[1:].isdigit()]
+    e, q = out["elastic"][labels].to_numpy(), out["relax"][labels].to_numpy()
+    assert np.abs(e[60] - e[-1]).max() < 1e-5          # elastic: the held load stays put
+    assert np.abs(q[60] - q[-1]).max() > 1e-3          # relaxing: it keeps moving
+    bad = _config(tmp_path, relaxation={"fractions": [0.3], "times_s": [1.0]},
+                  continuum={**layer, "law": "neo_hookean"})
+    r = _run("simulate", bad, _log(tmp_path / "l.csv"), "-o", tmp_path / "o.csv",
              "--arm", "coupled")
     assert r.exit_code == 1
     assert "tissue.relaxation" in _line(r)
