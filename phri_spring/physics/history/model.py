@@ -301,7 +301,7 @@ class HistorySolver:
         self.max_iterations = int(max_iterations)
         self.last_iterations = 0
         self.last_converged = True
-        self.last_contact = np.zeros(len(model.k), dtype=bool)
+        self.last_contact = np.zeros(model.n, dtype=bool)
         self.last_tangential = None
 
     def forces(self, wrench, time: float = 0.0, activation: float | None = None) -> np.ndarray:

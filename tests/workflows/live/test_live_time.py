@@ -186,3 +186,25 @@ def test_the_dashboard_state_names_the_curve_and_the_dose_alarm():
         assert dash.initial()["meta"]["tolerance"] is None
     finally:
         dash.close()
+
+
+def test_the_coupled_arm_streams_its_relaxing_and_contracting_layer_as_simulate(tmp_path):
+    """The coupled arm's relaxing layer with an activation column: the stream's forces are
+    those of simulate on the same samples (one state carried through both)."""
+    raw = harmony_dict()
+    raw["tissue"].update(activation_factor=2.0,
+                         relaxation={"fractions": [0.3, 0.2], "times_s": [0.05, 0.8]},
+                         continuum={"thickness": 0.02, "young_modulus": 3.0e4})
+    cfg = tmp_path / "coupled.yaml"
+    cfg.write_text(yaml.safe_dump(raw))
+    log = activation_log(tmp_path, rows=150, name="activation")
+    sim = tmp_path / "sim.parquet"
+    res = run("simulate", cfg, log, "-o", sim, "--arm", "coupled")
+    assert res.exit_code == 0, res.output
+    out = tmp_path / "live.parquet"
+    res = run("live", cfg, "--source", "-", "-o", out, "--arm", "coupled",
+              stdin=log.read_bytes())
+    assert res.exit_code == 0, res.output
+    live, ref = pd.read_parquet(out), pd.read_parquet(sim)
+    np.testing.assert_allclose(live[LABELS].to_numpy(), ref[LABELS].to_numpy(), rtol=0,
+                               atol=1e-9)
