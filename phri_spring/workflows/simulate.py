@@ -40,7 +40,7 @@ from .columns.tolerance import ExposureTally, exposure_table_path, write_exposur
 from .log_run import LogRun, SimulateSummary, SummaryAccumulator, open_log_run
 from .pipeline import (EXTRA_COLUMN_TYPES, EXTRA_COLUMNS, Baseline, as_config, baseline_forces,
                        check_activation, extra_arrow_types, parse_baseline, per_sample_extras,
-                       solve_chunk, window_mask)
+                       solve_chunk, window_mask, ForcesRing)
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
@@ -309,11 +309,15 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
                                                     model.friction_coefficient is not None,
                                                     dose is not None, has_band(model)),
                     decimals=decimals) as writer:
+        # the solver writes each chunk's forces into one of a few arrays used in turn, one
+        # more than the writer may still be reading: a fresh chunk-sized array would be
+        # faulted in anew every chunk
+        ring = ForcesRing(writer.in_flight + 1, len(model.labels))
         for number, (ch, W) in enumerate(chunks):
             if ch.activation is not None and number == 0:   # the log has muscle activation
                 model = history_model(model, cfg)
             chunk = solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear, ch.time,
-                                ch.activation)
+                                ch.activation, out=ring.next(len(W)))
             acc.add_solution(chunk.solution)
             job = extras_job(number, ch.time, chunk)
             if on_chunk is not None:  # the observer needs the extras now, in order
