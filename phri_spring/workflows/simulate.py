@@ -289,13 +289,14 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     acc = SummaryAccumulator(model.labels)
     cache = FactorCache()  # one run, one model: factorisations reused across chunks
 
-    def extras_job(number, time, chunk):
+    def extras_job(number, time, chunk, load_path_done=False):
         # runs on a writer thread, overlapping the solving of the next chunks
         def compute():
             # first, so that a failure below cannot leave the next chunks waiting for it
             dosed = {} if dose is None else dose.add_in_order(number, time,
                                                               chunk.solution.forces)
-            acc.add_load_path(number, model, chunk.solution)
+            if not load_path_done:
+                acc.add_load_path(number, model, chunk.solution)
             extras, idx = chunk.extras()
             extras.update(dosed)
             acc.add_peak(number, time, extras, idx)
@@ -319,7 +320,12 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
             chunk = solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear, ch.time,
                                 ch.activation, out=ring.next(len(W)))
             acc.add_solution(chunk.solution)
-            job = extras_job(number, ch.time, chunk)
+            # every chunk the writer may hold still unfinished: the writer is the slower of
+            # the two, so this thread adds this chunk's load path itself (the same sums)
+            helped = writer.in_flight > 0 and writer.backlog >= writer.in_flight
+            if helped:
+                acc.add_load_path(number, model, chunk.solution)
+            job = extras_job(number, ch.time, chunk, helped)
             if on_chunk is not None:  # the observer needs the extras now, in order
                 extras = job()
                 on_chunk(ch.time, chunk.solution.forces, extras["peak_pressure_kPa"])

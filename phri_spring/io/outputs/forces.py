@@ -166,6 +166,11 @@ class ForcesWriter:
                 cols.append(_arrow_array(val, None if pa.types.is_boolean(typ) else typ))
         return pa.Table.from_arrays(cols, schema=self.schema)
 
+    @property
+    def backlog(self) -> int:
+        """Chunks handed to the writer threads and not finished yet (0 when not threaded)."""
+        return 0 if self._pending is None else sum(not f.done() for f in self._pending)
+
     def _transposed(self, n: int, k: int) -> np.ndarray:
         """This thread's (n, k) array for a chunk's transposed forces (its own memory, reused
         by the thread's next chunk: a sink's ``encode`` must not keep the table it is given)."""
