@@ -257,10 +257,10 @@ def simulate_file(config, log, output, *, arm: str = "compliant",
 
     # (chunk, wrench on the cuff): the transform runs on the reader thread when there is one
     chunks = ((ch, cuff_wrench(cfg, ch.wrench)) for ch in run.chunks(rows))
-    if table_format(log) == "parquet" or run.out_fmt != "csv":
-        # read ahead on a thread, started now so that the first chunk is read while the
-        # model is built and the writer opens; not a CSV log into a CSV table: parsing
-        # ahead would compete with the CSV writer's threads
+    if table_format(log) == "parquet":
+        # Parquet is read ahead on a thread, started now so that the first row group is
+        # decoded while the writer opens; CSV is not: parsing ahead would compete with
+        # the CSV writer's threads
         chunks = prefetch(chunks)
     law = model.law
     tally = NoAnswerTally(arm_radius(model.geometry))
