@@ -87,6 +87,30 @@ def handle_signals() -> None:
         signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
 
 
+#: non-empty once the console entry point runs (cli/main.py): this process is the command's
+_own_process: list = []
+
+
+def own_process() -> None:
+    """Mark this process as the console command's own (called by the entry point only)."""
+    _own_process.append(True)
+
+
+def freeze_setup() -> None:
+    """Keep the objects made so far out of the garbage collector's scans, in the console
+    command's own process only.
+
+    What start-up made (modules, the config, the model) lives until the process ends, so
+    the collections of a long run need not scan it again. Not when the commands are
+    called from Python (the tests): there it would keep the caller's garbage of the
+    moment forever.
+    """
+    if _own_process:
+        import gc
+
+        gc.freeze()
+
+
 def _want_traceback() -> bool:
     return os.environ.get("PHRI_TRACEBACK", "") not in ("", "0")
 

@@ -126,9 +126,10 @@ def main(argv=None):
     """
     import sys
 
-    from ._common import handle_signals
+    from ._common import handle_signals, own_process
 
     _tune_memory()
+    own_process()
     handle_signals()   # SIGTERM and SIGHUP like Ctrl-C; SIGXFSZ ignored (EFBIG instead)
     code = 0
     try:

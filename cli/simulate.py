@@ -6,7 +6,7 @@ import math
 
 import click
 
-from ._common import ArmChoice, StderrProgress, info, progress_enabled, warn
+from ._common import ArmChoice, StderrProgress, freeze_setup, info, progress_enabled, warn
 
 
 @click.command("simulate", context_settings={"help_option_names": ["-h", "--help"]})
@@ -143,6 +143,7 @@ def simulate(config, log, output, arm, shear, baseline, columns, group, decimals
                     columns=cols_read, group=group_read)
         pool = MaxPool(len(config.labels), total=count_rows(log, group_read))
     bar = StderrProgress("simulate", progress_enabled(progress))
+    freeze_setup()
     try:
         summary = simulate_file(config, log, output, arm=arm, baseline=base, columns=colmap,
                                 group=group, shear=shear,

@@ -35,7 +35,7 @@ from .columns.shear import shear_columns, shear_extras
 
 __all__ = ["EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES", "Baseline", "parse_baseline", "window_mask",
            "baseline_forces", "check_activation", "as_config", "per_sample_extras",
-           "SolvedChunk", "solve_chunk", "extra_arrow_types"]
+           "SolvedChunk", "solve_chunk", "ForcesRing", "extra_arrow_types"]
 
 #: extra per-sample columns of the forces table, after the element labels, with their types
 #: (docs/model.md section 7): counts, kPa, an element label, a ratio, a count, a flag
@@ -44,6 +44,8 @@ EXTRA_COLUMN_TYPES = (("contacts_in_touch", "int64"), ("peak_pressure_kPa", "flo
                       ("peak_pressure_to_pain_threshold", "float64"),
                       ("solver_iterations", "int64"), ("converged", "bool"))
 EXTRA_COLUMNS = tuple(name for name, _ in EXTRA_COLUMN_TYPES)
+#: values of the (samples x elements) pressures :func:`per_sample_extras` holds at a time
+_PRESSURE_BLOCK_VALUES = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -112,12 +114,20 @@ def per_sample_extras(model: SpringModel, absolute_forces, contact, iterations, 
     Returns ``(extras, peak_index)``; ``extras["peak_pressure_element"]`` is
     ``(indices, labels)`` (dictionary-encoded).
     """
-    pressure = absolute_forces * model.inv_area_kpa                                 # kPa
+    forces = np.atleast_2d(absolute_forces)
     converged = np.asarray(converged, dtype=bool)
-    if not converged.all():  # NaN rows: keep argmax away from them
-        pressure = np.where(np.isnan(pressure), -np.inf, pressure)
-    idx = np.argmax(pressure, axis=1)
-    peak = pressure[np.arange(len(idx)), idx]
+    m = len(forces)
+    idx = np.empty(m, dtype=np.intp)
+    peak = np.empty(m)
+    # block by block: the pressures of a whole chunk would be a fresh chunk-sized array
+    step = max(1, _PRESSURE_BLOCK_VALUES // max(1, forces.shape[1]))
+    for lo in range(0, m, step):
+        hi = min(m, lo + step)
+        pressure = forces[lo:hi] * model.inv_area_kpa                               # kPa
+        if not converged[lo:hi].all():  # NaN rows: keep argmax away from them
+            pressure[np.isnan(pressure)] = -np.inf
+        idx[lo:hi] = np.argmax(pressure, axis=1)
+        peak[lo:hi] = pressure[np.arange(hi - lo), idx[lo:hi]]
     peak[~converged] = np.nan
     return {
         "contacts_in_touch": np.count_nonzero(contact, axis=1).astype(np.int64),
@@ -202,16 +212,38 @@ class SolvedChunk:
         return self._extras
 
 
+class ForcesRing:
+    """``size`` arrays for the forces of consecutive chunks (n columns), used in turn: the
+    array of a chunk is handed out again ``size`` chunks later, so it must no longer be
+    read by then (``size``: one more than the chunks a writer may still hold)."""
+
+    def __init__(self, size: int, n: int):
+        self.n = int(n)
+        self._flat = [np.empty(0) for _ in range(max(1, int(size)))]
+        self._turn = 0
+
+    def next(self, m: int) -> np.ndarray:
+        """The next array, (m, n) float64, C-contiguous (its values are left over)."""
+        i = self._turn
+        self._turn = (i + 1) % len(self._flat)
+        if self._flat[i].size < m * self.n:
+            self._flat[i] = np.empty(m * self.n)
+        return self._flat[i][:m * self.n].reshape(m, self.n)
+
+
 def solve_chunk(model, W, f_base, max_iterations: int, cache: FactorCache,
-                shear: bool = False, time=None, activation=None) -> SolvedChunk:
+                shear: bool = False, time=None, activation=None,
+                out: Optional[np.ndarray] = None) -> SolvedChunk:
     """Solve cuff wrenches W (m, 6) and zero the forces by the baseline f_base (n,) or None.
 
     A model with a tissue history solves the samples in order at their times [s] and
-    activations (0..1, None: 0), continuing from the chunk before."""
+    activations (0..1, None: 0), continuing from the chunk before. ``out``: an array
+    (m, n) the solver may write the forces into (see :func:`~phri_spring.physics.contact.
+    solver.solve`; the paths that do not take one ignore it)."""
     if getattr(model, "has_history", False):
         sol = model.solve_log(W, time, activation, max_iterations=max_iterations)
     else:
-        sol = solve(model, W, max_iterations=max_iterations, cache=cache)
+        sol = solve(model, W, max_iterations=max_iterations, cache=cache, out=out)
     forces = sol.forces if f_base is None else sol.forces - f_base
     return SolvedChunk(model, sol, forces, shear, W)
 

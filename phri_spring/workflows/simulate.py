@@ -38,7 +38,7 @@ from .columns.shear import element_loads, has_patch_moments, shear_columns
 from .log_run import LogRun, SimulateSummary, SummaryAccumulator, open_log_run
 from .pipeline import (EXTRA_COLUMN_TYPES, EXTRA_COLUMNS, Baseline, as_config, baseline_forces,
                        check_activation, extra_arrow_types, parse_baseline, per_sample_extras,
-                       solve_chunk, window_mask)
+                       solve_chunk, window_mask, ForcesRing)
 
 __all__ = ["Baseline", "parse_baseline", "simulate", "simulate_file", "SimulationResult",
            "SimulateSummary", "SummaryAccumulator", "EXTRA_COLUMNS", "EXTRA_COLUMN_TYPES",
@@ -314,13 +314,14 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
     acc = SummaryAccumulator(model.labels)
     cache = FactorCache()  # one run, one model: factorisations reused across chunks
 
-    def extras_job(number, time, chunk):
+    def extras_job(number, time, chunk, load_path_done=False):
         # runs on a writer thread, overlapping the solving of the next chunks
         def compute():
             # first, so that a failure below cannot leave the next chunks waiting for it
             dosed = {} if dose is None else dose.add_in_order(number, time,
                                                               chunk.solution.forces)
-            acc.add_load_path(number, model, chunk.solution)
+            if not load_path_done:
+                acc.add_load_path(number, model, chunk.solution)
             extras, idx = chunk.extras()
             extras.update(dosed)
             acc.add_peak(number, time, extras, idx)
@@ -334,13 +335,22 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
                                                     model.friction_coefficient is not None,
                                                     dose is not None, has_band(model)),
                     decimals=decimals) as writer:
+        # the solver writes each chunk's forces into one of a few arrays used in turn, one
+        # more than the writer may still be reading: a fresh chunk-sized array would be
+        # faulted in anew every chunk
+        ring = ForcesRing(writer.in_flight + 1, len(model.labels))
         for number, (ch, W) in enumerate(chunks):
             if ch.activation is not None and number == 0:   # the log has muscle activation
                 model = history_model(model, cfg)
             chunk = solve_chunk(model, W, f_base, cfg.max_iterations, cache, shear, ch.time,
-                                ch.activation)
+                                ch.activation, out=ring.next(len(W)))
             acc.add_solution(chunk.solution)
-            job = extras_job(number, ch.time, chunk)
+            # every chunk the writer may hold still unfinished: the writer is the slower of
+            # the two, so this thread adds this chunk's load path itself (the same sums)
+            helped = writer.in_flight > 0 and writer.backlog >= writer.in_flight
+            if helped:
+                acc.add_load_path(number, model, chunk.solution)
+            job = extras_job(number, ch.time, chunk, helped)
             if on_chunk is not None:  # the observer needs the extras now, in order
                 extras = job()
                 on_chunk(ch.time, chunk.solution.forces, extras["peak_pressure_kPa"])

@@ -65,7 +65,9 @@ class LogFormat:
         and has ``encode(table)`` (safe on several threads at once when the
         class's ``parallel`` is true), which writes the chunk or returns its
         bytes, ``write(data)`` (called in order with the bytes ``encode``
-        returned; needed only when it returns any) and ``close()``; the class's
+        returned; needed only when it returns any) and ``close()``; ``encode``
+        must not keep the table (or its arrays) once it returns, as the writer
+        reuses their memory for its next chunk; the class's
         ``rounds`` tells whether floats are rounded to the writer's
         ``decimals`` first.
     grouped : bool

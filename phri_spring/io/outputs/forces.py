@@ -7,6 +7,7 @@ chunk's table and keeps the chunks in order across the writer threads.
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 from typing import Optional
 
@@ -34,6 +35,22 @@ def _arrow_array(values, typ=None):
         typ = pa.from_numpy_dtype(arr.dtype)
     arr = np.ascontiguousarray(arr, dtype=typ.to_pandas_dtype())
     return pa.Array.from_buffers(typ, len(arr), [None, pa.py_buffer(arr)])
+
+
+#: rows of the forces transposed at a time: a block of the chunk and its transpose stay in
+#: the processor's cache, where one strided pass over the whole chunk would miss it on
+#: every value
+_TRANSPOSE_ROWS = 64
+
+
+def transpose_into(forces: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """``forces.T`` (k, n) -> (n, k) written into the C-contiguous ``out``, block by block
+    (the same values as ``np.ascontiguousarray(forces.T)``)."""
+    k = forces.shape[0]
+    for lo in range(0, k, _TRANSPOSE_ROWS):
+        hi = min(lo + _TRANSPOSE_ROWS, k)
+        out[:, lo:hi] = forces[lo:hi].T
+    return out
 
 
 def _arrow_strings(names):
@@ -104,6 +121,15 @@ class ForcesWriter:
         self._sink = None
         self._pool = None
         self._pending = None
+        # each converting thread transposes its chunks into one array of its own, kept from
+        # chunk to chunk: a fresh chunk-sized array would be faulted in anew every chunk
+        self._scratch = threading.local()
+
+    @property
+    def in_flight(self) -> int:
+        """Most chunks the writer may still be reading after :meth:`write` returns: an
+        array handed to it may be reused once ``in_flight`` later chunks were written."""
+        return max(2, self.workers) if self.threaded else 0
 
     def __enter__(self):
         self._sink = self._sink_type(self.path, self.schema, self.labels)
@@ -123,9 +149,9 @@ class ForcesWriter:
         rnd = self.decimals if self._sink_type.rounds else None
         cols = [_arrow_array(np.asarray(time, dtype=float))]
         forces = np.asarray(forces, dtype=float)
-        if rnd is not None:
-            forces = np.round(forces, rnd)
-        forces_t = np.ascontiguousarray(forces.T)
+        forces_t = transpose_into(forces, self._transposed(*forces.shape[::-1]))
+        if rnd is not None:   # element by element: the same values as rounding before
+            np.round(forces_t, rnd, out=forces_t)
         cols += [_arrow_array(forces_t[j]) for j in range(forces_t.shape[0])]
         for name in self.schema.names[1 + len(self.labels):]:
             typ = self.schema.field(name).type
@@ -139,6 +165,19 @@ class ForcesWriter:
             else:
                 cols.append(_arrow_array(val, None if pa.types.is_boolean(typ) else typ))
         return pa.Table.from_arrays(cols, schema=self.schema)
+
+    @property
+    def backlog(self) -> int:
+        """Chunks handed to the writer threads and not finished yet (0 when not threaded)."""
+        return 0 if self._pending is None else sum(not f.done() for f in self._pending)
+
+    def _transposed(self, n: int, k: int) -> np.ndarray:
+        """This thread's (n, k) array for a chunk's transposed forces (its own memory, reused
+        by the thread's next chunk: a sink's ``encode`` must not keep the table it is given)."""
+        flat = getattr(self._scratch, "flat", None)
+        if flat is None or flat.size < n * k:
+            flat = self._scratch.flat = np.empty(n * k)
+        return flat[:n * k].reshape(n, k)
 
     def _convert(self, time, forces, extras):
         """One chunk encoded by the sink: bytes to write later, in order, or None if written."""

@@ -45,6 +45,24 @@ __all__ = ["Solution", "solve", "solve_segments", "solve_per_sample", "Solver", 
 
 #: samples per internal block (bounds the (samples x elements) temporaries)
 _BLOCK_ENTRIES = 1 << 21
+#: values of g = delta0 + b u computed at a time: a block stays in the processor's cache
+#: from its product to its last use, and a product this small is done without first
+#: clearing its output
+_ROW_BLOCK_VALUES = 1 << 16
+
+
+def _block_rows(n: int) -> int:
+    """Rows of a block of :data:`_ROW_BLOCK_VALUES` values of an (m, n) array (>= 256)."""
+    return max(256, _ROW_BLOCK_VALUES // max(int(n), 1))
+
+
+def _row_blocks(m: int, n: int):
+    """(lo, hi) of the consecutive row blocks of an (m, n) array (see :func:`_block_rows`)."""
+    step = _block_rows(n)
+    for lo in range(0, m, step):
+        yield lo, min(m, lo + step)
+
+
 # --------------------------------------------------------------------------- the spring system
 def _exact_step(k, g, h, a0, q) -> float:
     """Exact minimiser alpha >= 0 of Pi(u + alpha d).
@@ -136,11 +154,17 @@ class SpringSystem(ContactSystem):
 
     def indicator(self, u, S=None, keys=None, out=None):
         """Compression g = delta0 + b u [m], (m, n) (written into ``out`` if given)."""
-        if out is None:
+        u = np.asarray(u, dtype=float)
+        if u.ndim != 2:
             g = u @ self.model.bT
-        else:  # straight into the caller's array: no extra pass, no fresh pages
-            g = np.matmul(u, self.model.bT, out=out)
-        g += self.model.delta0
+            g += self.model.delta0
+            return g
+        # straight into the caller's array if given: no extra pass, no fresh pages
+        g = np.empty((len(u), self.n)) if out is None else out
+        for lo, hi in _row_blocks(len(u), self.n):
+            blk = g[lo:hi]
+            np.matmul(u[lo:hi], self.model.bT, out=blk)
+            blk += self.model.delta0
         return g
 
     def consistent(self, S, g, u):
@@ -180,7 +204,12 @@ class SpringSystem(ContactSystem):
 
     def predict_sets(self, u, S):
         """Contact sets at displacements u: the compression's sign (the set does not matter)."""
-        return self.indicator(u) > 0
+        m = len(u)
+        out = np.empty((m, self.n), dtype=bool)
+        g = np.empty((min(m, _block_rows(self.n)), self.n))
+        for lo, hi in _row_blocks(m, self.n):
+            np.greater(self.indicator(u[lo:hi], out=g[:hi - lo]), 0.0, out=out[lo:hi])
+        return out
 
     def forces(self, q, out=None, u=None):
         """Normal forces [N] from the indicator (compression) q; in place if ``out is q``.

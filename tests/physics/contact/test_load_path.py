@@ -238,6 +238,25 @@ def test_streamed_summary_equals_the_whole_log_and_the_line_adds_up(tmp_path):
     np.testing.assert_allclose(printed, 100 * ref / ref.sum(), atol=0.1)
 
 
+@pytest.mark.parametrize("backlog", [0, 99])
+def test_streamed_summary_whichever_thread_adds_the_load_path(tmp_path, monkeypatch, backlog):
+    # a writer that is always behind (99) makes the solving thread add every chunk's load
+    # path itself, one never behind (0) leaves it to the writer: each chunk counted once
+    from phri_spring.io.outputs.forces import ForcesWriter
+
+    monkeypatch.setattr(ForcesWriter, "backlog", property(lambda self: backlog))
+    W_lc = _loads(1800, seed=7, force=40.0, moment=1.5)
+    log = tmp_path / "log.csv"
+    _write_log(log, W_lc)
+    summary = simulate_file(HARMONY, log, tmp_path / "f.parquet", chunk_rows=500)
+    cfg = load_config(HARMONY)
+    model = model_from_config(cfg, "compliant")
+    sol = solve(model, cuff_wrench(cfg, W_lc))
+    ft = np.linalg.norm(model.shear_forces(sol.u), axis=-1)
+    ref = _by_kind(sol.forces, ft, sol.contact).sum(axis=0)
+    np.testing.assert_allclose(summary.load_shares, ref / ref.sum(), rtol=1e-9)
+
+
 @given(shares=st.lists(st.floats(0, 1), min_size=3, max_size=3).filter(lambda s: sum(s) > 0))
 def test_printed_percentages_add_up_to_100(shares):
     s = np.array(shares) / sum(shares)
