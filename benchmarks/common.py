@@ -98,6 +98,7 @@ def make_log(path: Path, n: int, seed: int) -> None:
 
     from phri_spring.synthetic.wrench import smooth_random_log
 
+    path = Path(path)
     chunk = 1_000_000
     writer = None
     for s in range(0, n, chunk):

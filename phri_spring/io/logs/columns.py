@@ -8,7 +8,7 @@ __all__ = ["LOG_COLUMNS", "LOG_GROUP_KEY", "OPTIONAL_LOG_COLUMNS", "ACTIVATION"]
 
 #: the columns of a wrench log, in the config's ``load_cell.columns`` and the readers
 LOG_COLUMNS = ("time", "Fx", "Fy", "Fz", "Mx", "My", "Mz")
-#: spec name of the optional muscle activation column (0..1; docs/model.md section 15.4)
+#: spec name of the optional muscle activation column (0..1; docs/model.md section 15.2)
 ACTIVATION = "activation"
 #: optional columns a run reads when the log has them (a trailing "?" in ``wanted``)
 OPTIONAL_LOG_COLUMNS = (ACTIVATION + "?",)
