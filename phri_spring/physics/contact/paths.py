@@ -15,7 +15,7 @@ from .active_set import ContactSystem, FactorCache
 from .solution import Solution
 
 __all__ = ["HUGE", "DIRECT_ROWS", "make_system", "nonlinear_finish", "solve_direct",
-           "solve_friction", "friction_solution"]
+           "solve_friction", "friction_solution", "path_wrenches"]
 
 #: a cuff displacement beyond this [m, rad] is no answer (an absurd input: forces overflow)
 HUGE = 1e100
@@ -76,14 +76,21 @@ def solve_friction(model, W, single: bool, cache: FactorCache | None,
     if cache.path_form is None or cache.path_form[0] is not model:
         cache.path_form = (model, interface_form(model))
     form = cache.path_form[1]
-    with np.errstate(over="ignore", invalid="ignore"):
-        r = W + model.W_pre
-    finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= HUGE)
-    r = np.where(finite[:, None], r, model.W_pre)
+    r, finite = path_wrenches(W, model.W_pre)
     u, P, cls, solves, conv, end = solve_path(form, r, cache.path_state if state is None
                                               else state, cache.path_maps)
     cache.path_state = end
     return friction_solution(model, u, P, cls, solves, conv & finite, single)
+
+
+def path_wrenches(W, W_pre):
+    """``(r, finite)``: the wrenches W (m, 6) plus the strap's W_pre (6,) for a loading path,
+    and which rows are an answerable load (finite, within :data:`HUGE`); the others are
+    solved as the strap alone and reported as not converged."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        r = W + W_pre
+    finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= HUGE)
+    return np.where(finite[:, None], r, W_pre), finite
 
 
 def friction_solution(model, u, P, cls, solves, conv, single: bool) -> Solution:

@@ -25,12 +25,13 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import ModelInputError
-from ..contact.paths import HUGE, friction_solution
+from ..contact.paths import friction_solution, path_wrenches
 from ..contact.solution import Solution
 from ..friction.form import InterfaceForm, initial_state, interface_form
 from ..friction.path import solve_path
 from ..friction.states import interface_mu
-from .model import activation_scale
+from .model import activation_scale, check_activation_factor, log_steps
+from .path import stiffened_layer
 from .relaxation import Prony, step_coefficients
 
 __all__ = ["CoupledRelaxation", "CoupledHistoryState"]
@@ -77,14 +78,10 @@ class CoupledRelaxation:
         if interface_mu(base) is None:
             raise ModelInputError("relaxation on the coupled arm: expected its lift-off "
                                   "interface or a friction coefficient", "relaxation")
-        if not (np.isfinite(activation_factor) and activation_factor > 0):
-            raise ModelInputError("activation_factor: expected a finite number > 0",
-                                  "activation_factor")
         self.base = base
         self.relaxation = relaxation
-        self.activation_factor = float(activation_factor)
+        self.activation_factor = check_activation_factor(activation_factor)
         self._form = interface_form(base)
-        self._C_cuff = np.diag(base.C - base.C_t).copy()
         self.state = CoupledHistoryState(self._form, len(relaxation.g))
 
     def __getattr__(self, name):
@@ -100,19 +97,9 @@ class CoupledRelaxation:
                   state: CoupledHistoryState | None = None, keep: bool = True) -> Solution:
         """Solve the samples of a log in order at their times [s] (a time that repeats or
         goes back: no time passing) and activations (None: 0), from the model's state."""
-        W = np.atleast_2d(np.asarray(wrench, dtype=float))
-        t = np.atleast_1d(np.asarray(times, dtype=float))
-        m = len(W)
-        if W.shape != (m, 6) or t.shape != (m,):
-            raise ValueError(f"wrench and times: expected shapes (m, 6) and (m,), got "
-                             f"{W.shape} and {t.shape}")
-        if not (np.isfinite(W).all() and np.isfinite(t).all()):
-            raise ValueError("wrench and times: expected finite numbers")
         st = (self.state if state is None else state).copy()
-        dt = np.empty(m)
-        dt[:1] = np.inf if st.time is None else t[:1] - st.time
-        dt[1:] = np.diff(t)
-        return self._steps(W, np.maximum(dt, 0.0), activation, st, keep, t)
+        W, t, dt = log_steps(wrench, times, st.time)
+        return self._steps(W, dt, activation, st, keep, t)
 
     def _steps(self, W, dt, activation, st, keep, t=None) -> Solution:
         m = len(W)
@@ -121,10 +108,7 @@ class CoupledRelaxation:
         A, B = step_coefficients(prony, dt)
         s = (np.ones(m) if activation is None
              else activation_scale(np.asarray(activation, dtype=float), self.activation_factor))
-        with np.errstate(over="ignore", invalid="ignore"):
-            r = W + base.W_pre
-        finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= HUGE)
-        r = np.where(finite[:, None], r, base.W_pre)
+        r, finite = path_wrenches(W, base.W_pre)
         N = f.n * f.d
         u = np.empty((m, 6))
         P = np.empty((m, N))
@@ -135,12 +119,9 @@ class CoupledRelaxation:
             c1 = float(prony.relaxed + g @ B[k])
             c = c1 * float(s[k])
             H = (g * A[k]) @ st.h - (g @ B[k]) * st.Fe
-            C_skin = base.C_t / c
-            form = InterfaceForm(n=f.n, d=f.d, C=C_skin + np.diag(self._C_cuff), C_skin=C_skin,
-                                 T=f.T, delta=f.delta + C_skin @ H, W_pre=f.W_pre, mu=f.mu,
-                                 diagonal=False)
             # every sample has its own offset (the memory): its own form and factor cache
-            uk, Pk, ck, sk, ok, path = solve_path(form, r[k:k + 1], st.path, {})
+            uk, Pk, ck, sk, ok, path = solve_path(stiffened_layer(f, c, H), r[k:k + 1],
+                                                  st.path, {})
             u[k], P[k], cls[k], solves[k], conv[k] = uk[0], Pk[0], ck[0], sk[0], ok[0]
             ok = bool(ok[0]) and bool(finite[k])
             Fe = (Pk[0] - H) / c1 if ok else st.Fe

@@ -38,7 +38,7 @@ from .relaxation import Prony, step_coefficients
 from ..contact.solution import Solution
 
 __all__ = ["HistoryModel", "HistorySolver", "HistoryState", "activation_scale", "kernel",
-           "warm_up"]
+           "log_steps", "check_activation_factor", "warm_up"]
 
 _KERNEL = None
 _WARMING = None
@@ -134,12 +134,9 @@ class HistoryModel:
         if law.name not in ("linear", "exponential"):
             raise ModelInputError(f"relaxation and activation: expected the linear or exponential "
                                   f"tissue law, got {law.name!r}", "relaxation")
-        if not (np.isfinite(activation_factor) and activation_factor > 0):
-            raise ModelInputError("activation_factor: expected a finite number > 0",
-                                  "activation_factor")
         self.base = base
         self.relaxation = relaxation if relaxation is not None else Prony((), ())
-        self.activation_factor = float(activation_factor)
+        self.activation_factor = check_activation_factor(activation_factor)
         n = len(base.k)
         g = base.geometry
         B = element_jacobians(g.points)                              # (n, 3, 6)
@@ -172,7 +169,7 @@ class HistoryModel:
         the others and of the model's history: what a static question (an interface
         stiffness, a design's load set, a comparison's held conditions) asks."""
         W = np.atleast_2d(np.asarray(wrench, dtype=float))
-        W, _ = _as_log(W, np.zeros(len(W)))
+        W, _, _ = log_steps(W, np.zeros(len(W)))
         fresh = HistoryState(len(self.relaxation.g), len(self._kt))
         # an infinite step before every sample forgets all history (a = b = 0)
         return _solve_steps(self, W, np.full(len(W), np.inf), activation, fresh,
@@ -197,12 +194,8 @@ class HistoryModel:
         keep : bool
             Keep the state after the last sample as the model's (the next call continues).
         """
-        W, t = _as_log(wrench, times)
         st = (self.state if state is None else state).copy()
-        dt = np.empty(len(W))
-        if len(W):
-            dt[0] = np.inf if st.time is None else t[0] - st.time
-            dt[1:] = np.diff(t)
+        W, t, dt = log_steps(wrench, times, st.time)
         sol = _solve_steps(self, W, dt, activation, st, max_iterations)
         st.time = float(t[-1]) if len(W) else st.time
         if keep:
@@ -216,8 +209,11 @@ class HistoryModel:
                                  max_iterations=max_iterations).forces[0]
 
 
-def _as_log(wrench, times):
-    """``(W (m, 6), t (m,))`` as arrays of finite numbers, or a ValueError."""
+def log_steps(wrench, times, last_time: float | None = None):
+    """``(W (m, 6), t (m,), dt (m,))`` of a log: wrenches and times as arrays of finite
+    numbers (else a ValueError), and each sample's step from the one before [s], the first
+    from ``last_time`` (None: rested, an infinite step); a time that repeats or goes back
+    is no time passing (dt = 0)."""
     W = np.atleast_2d(np.asarray(wrench, dtype=float))
     t = np.atleast_1d(np.asarray(times, dtype=float))
     m = len(W)
@@ -226,7 +222,19 @@ def _as_log(wrench, times):
                          f"{W.shape} and {t.shape}")
     if not (np.isfinite(W).all() and np.isfinite(t).all()):
         raise ValueError("wrench and times: expected finite numbers")
-    return W, t
+    dt = np.empty(m)
+    if m:
+        dt[0] = np.inf if last_time is None else t[0] - last_time
+        dt[1:] = np.diff(t)
+    return W, t, np.maximum(dt, 0.0)
+
+
+def check_activation_factor(factor) -> float:
+    """c of s = 1 + (c - 1) a as a float, or a ModelInputError unless finite and > 0."""
+    if not (np.isfinite(factor) and factor > 0):
+        raise ModelInputError("activation_factor: expected a finite number > 0",
+                              "activation_factor")
+    return float(factor)
 
 
 def _solve_steps(model: HistoryModel, wrench, dt, activation, state: HistoryState,

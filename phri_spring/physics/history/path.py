@@ -34,18 +34,30 @@ from dataclasses import replace
 import numpy as np
 
 from ...errors import ModelInputError
-from ..contact.paths import HUGE, friction_solution
+from ..contact.paths import friction_solution, path_wrenches
 from ..contact.solution import Solution
 from ..friction.form import InterfaceForm, initial_state, interface_form
 from ..friction.states import interface_mu
 from ..friction.path import solve_path
-from .model import activation_scale
+from .model import activation_scale, check_activation_factor
 
-__all__ = ["PathActivation"]
+__all__ = ["PathActivation", "stiffened_layer"]
 
 #: compliance forms kept per activation scale (a log with a few activation levels reuses
 #: them; a continuous channel makes one per sample and keeps the last few)
 _FORMS = 32
+
+
+def stiffened_layer(form: InterfaceForm, scale: float, offset=None) -> InterfaceForm:
+    """The coupled model's compliance form (:func:`interface_form`) with its tissue layer
+    stiffened by ``scale`` (C_t / scale; the cuff's compliance C - C_t unchanged) and, with
+    ``offset`` (n d,) [N, N*m], tissue forces P = scale K_t q + offset: the tied dofs'
+    offset becomes delta + C_t offset / scale."""
+    C_skin = form.C_skin / scale
+    C = C_skin + (form.C - form.C_skin)
+    delta = form.delta if offset is None else form.delta + C_skin @ offset
+    return InterfaceForm(n=form.n, d=form.d, C=C, C_skin=C_skin, T=form.T, delta=delta,
+                         W_pre=form.W_pre, mu=form.mu, diagonal=False)
 
 
 class PathActivation:
@@ -78,19 +90,15 @@ class PathActivation:
             raise ModelInputError("activation on the coupled arm needs its linear continuum "
                                   "layer (the hyperelastic layers' reduced models are built "
                                   "for one modulus)", "activation_factor")
-        if not (np.isfinite(activation_factor) and activation_factor > 0):
-            raise ModelInputError("activation_factor: expected a finite number > 0",
-                                  "activation_factor")
+        activation_factor = check_activation_factor(activation_factor)
         if interface_mu(base) is None:
             raise ModelInputError("activation along a loading path: expected the coupled "
                                   "arm's lift-off interface or a friction coefficient (bonded "
                                   "ties everywhere is a legacy mode)", "activation_factor")
         self.base = base
-        self.activation_factor = float(activation_factor)
+        self.activation_factor = activation_factor
         self._scaled = scaled
         self._form = interface_form(base)
-        if scaled is None:
-            self._C_cuff = np.diag(base.C - base.C_t).copy()   # the cuff's, diagonal
         self._forms: dict[float, tuple[InterfaceForm, dict]] = {}
         self.state = None
 
@@ -114,10 +122,7 @@ class PathActivation:
                 # the stiffened springs on the unactivated preload compressions
                 form = replace(interface_form(self._scaled(s), like=f), delta=f.delta)
             else:
-                C_skin = self.base.C_t / s
-                C = C_skin + np.diag(self._C_cuff)
-                form = InterfaceForm(n=f.n, d=f.d, C=C, C_skin=C_skin, T=f.T, delta=f.delta,
-                                     W_pre=f.W_pre, mu=f.mu, diagonal=False)
+                form = stiffened_layer(f, s)
             if len(self._forms) >= _FORMS:
                 self._forms.pop(next(iter(self._forms)))
             hit = self._forms[s] = (form, {})
@@ -141,10 +146,7 @@ class PathActivation:
             raise ValueError(f"activation: expected {m} values giving a scale > 0")
         st = self.state if state is None else state
         st = initial_state(self._form) if st is None else st
-        with np.errstate(over="ignore", invalid="ignore"):
-            r = W + self.base.W_pre
-        finite = np.isfinite(r).all(axis=1) & (np.abs(r).max(axis=1) <= HUGE)
-        r = np.where(finite[:, None], r, self.base.W_pre)
+        r, finite = path_wrenches(W, self.base.W_pre)
         n, d = self._form.n, self._form.d
         u = np.empty((m, 6))
         P = np.empty((m, n * d))
