@@ -363,7 +363,8 @@ def _check_coupled_shape(cfg: Config) -> None:
 
 def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
     """:func:`coupled_model` with the linear continuum."""
-    from ..physics.continuum.coupled import build_coupled_model, scale_patches
+    from ..physics.continuum.coupled import build_coupled_model
+    from ..physics.continuum.spread import scale_parts, scale_patches
 
     key = "tissue.continuum"
     if cfg.strap_model == "band":
@@ -402,7 +403,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
                           file=cfg.path, key="tissue.poisson_ratio")
     from ..io.cache.surface_stiffness import load_or_build, load_surface_stiffness
 
-    N = None
+    N = parts = None
     if cfg.continuum_surface_stiffness is not None:
         K = load_surface_stiffness(cfg.continuum_surface_stiffness, geom)
         E = None
@@ -413,11 +414,14 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
         K, info = load_or_build(geom, t, float(np.mean(E)), cfg.poisson_ratio,
                                 cache_dir=cache_dir, patch_gap=cfg.continuum_patch_gap,
                                 bone=cfg.bone, **at_level)
-        N = info.get("N")
+        N, parts = info.get("N"), info.get("N_parts")
     if cfg.continuum_spread == "per_patch":
         if E is None:
             E = continuum_modulus(cfg, geom)
-        K, N = scale_patches(K, N, E / np.mean(E))
+        s = E / np.mean(E)
+        K, N = scale_patches(K, N, s)
+        if parts is not None:
+            parts = (scale_parts(parts[0], parts[1], s, K.shape[0] // geom.n), parts[1])
     try:
         return build_coupled_model(geom, K, cfg.cuff_stiffness, poisson_ratio=cfg.poisson_ratio,
                                    shear_ratio=cfg.shear_ratio, strap_tension=cfg.strap_tension,
@@ -425,6 +429,7 @@ def _linear_coupled_model(cfg: Config, *, cache_dir=None, level=None):
                                    handle_angles_deg=cfg.handle_angles_deg,
                                    handle_axial_position=cfg.strap_axial_position,
                                    pain_threshold_kpa=cfg.pain_threshold_kpa, normal_output=N,
+                                   normal_parts=parts,
                                    friction_coefficient=cfg.friction_coefficient)
     except ModelInputError as exc:
         raise ConfigError(str(exc), file=cfg.continuum_surface_stiffness or cfg.path,

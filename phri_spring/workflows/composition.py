@@ -297,8 +297,8 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
     if mu is not None:
         T, Fn = np.hypot(ax, ci)[conv], N[conv]
         if all(c in df.columns for c in force_cols):
-            # the cone holds the force along n_e (a coupled patch's label column is the
-            # FSR-like traction integral, not that force): split the resultant on n_e
+            # the cone holds the force along n_e (a coupled patch's label column is what
+            # its sensor reads, not that force): split the resultant on n_e
             f = df[force_cols].to_numpy(float).reshape(len(df), len(labels), 3)[conv]
             nrm = cfg.geometry().normals
             Fn = np.einsum("mei,ei->me", f, nrm)
@@ -311,13 +311,9 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
     releases = mu is not None or (comb.arm in CONTINUUM_ARMS
                                   and comb.continuum_law in (None, "linear"))
     if releases and conv.any():
+        # an element or patch whose label column reads 0 N (a coupled patch's: what its
+        # sensor reads, docs/model.md 10.6) is out of contact
         lifted = N[conv] <= _TOL_N
-        if all(c in df.columns for c in force_cols):
-            # a coupled patch's label column is its traction integral, which a patch in
-            # contact under a strong moment can bring to 0 (a curved skin turns the tractions
-            # off n_e): a patch is lifted when its force along n_e is 0 too
-            f = df[force_cols].to_numpy(float).reshape(len(df), len(labels), 3)[conv]
-            lifted &= np.einsum("mei,ei->me", f, cfg.geometry().normals) <= _TOL_N
         carried = np.hypot(ax, ci)[conv]
         moment_cols = [c for c in df.columns if "_moment_" in c and c.endswith("_Nm")]
         if moment_cols:

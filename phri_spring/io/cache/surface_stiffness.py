@@ -31,8 +31,9 @@ __all__ = ["CACHE_FORMAT_VERSION", "default_cache_dir", "cache_key", "load_or_bu
            "load_or_build", "load_surface_stiffness", "SYMMETRY_RTOL"]
 
 #: bump when the FE or the file layout changes: old cache entries are then ignored
-#: (3: patch gaps, tissue.continuum.patch_gap, and the angular seam at a patch edge)
-CACHE_FORMAT_VERSION = 3
+#: (3: patch gaps, tissue.continuum.patch_gap, and the angular seam at a patch edge;
+#: 4: N's rows split by skin node, what a patch's sensor reads)
+CACHE_FORMAT_VERSION = 4
 #: relative tolerance (of the largest entry) of the symmetry check of a user's K
 SYMMETRY_RTOL = 1e-8
 
@@ -90,7 +91,8 @@ def read_cache_entry(path: Path, key: str, shapes: dict):
     """(arrays, info) of a cache file written by :func:`write_cache_entry`, or None when it
     is missing, stale (another key), corrupt, or an array is not finite or not of its shape.
 
-    ``shapes`` maps each array's name to its expected shape; ``info`` holds the scalars.
+    ``shapes`` maps each array's name to its expected shape (None for a length of any
+    size); ``info`` holds the scalars.
     """
     try:
         with np.load(path, allow_pickle=False) as z:
@@ -100,8 +102,9 @@ def read_cache_entry(path: Path, key: str, shapes: dict):
             info = {k[5:]: z[k].item() for k in z.files if k.startswith("info_")}
     except Exception:  # noqa: BLE001 - any unreadable entry is rebuilt, never an error
         return None
-    if any(arrays[k].shape != tuple(s) or not np.all(np.isfinite(arrays[k]))
-           for k, s in shapes.items()):
+    if any(arrays[k].ndim != len(s)
+           or any(want is not None and got != want for got, want in zip(arrays[k].shape, s))
+           or not np.all(np.isfinite(arrays[k])) for k, s in shapes.items()):
         return None
     return arrays, info
 
@@ -179,21 +182,36 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
                     length_factor=length_factor, ends=ends, patch_gap=gap, bone=bone)
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     path = folder / f"surface-stiffness-{key[:32]}.npz"
-    hit = read_cache_entry(path, key, {"K": (6 * n, 6 * n), "N": (n, 6 * n)})
+    hit = read_cache_entry(path, key, {"K": (6 * n, 6 * n), "N": (n, 6 * n),
+                                       "parts": (None, 6 * n), "part_patch": (None,)})
+    if hit is not None and not _parts_fit(hit[0], n):
+        hit = None
     E = float(young_modulus)
     if hit is not None:
         arrays, meta = hit
-        K1, N1 = arrays["K"], arrays["N"]
+        K1, N1, parts, owner = (arrays["K"], arrays["N"], arrays["parts"],
+                                arrays["part_patch"].astype(np.int64))
         info = dict(meta, source="cache", cache_error=None)
     else:
         ops = fe_tissue.condensed_surface_operators(geometry, thickness, 1.0, poisson_ratio,
                                                     level=level, length_factor=length_factor,
                                                     ends=ends, patch_gap=gap, bone=bone)
-        K1, N1 = ops.K, ops.N
+        K1, N1, parts, owner = ops.K, ops.N, ops.parts, ops.part_patch
         info = dict(ops.info, source="built")
-        info["cache_error"] = write_cache_entry(path, key, {"K": K1, "N": N1}, ops.info)
+        info["cache_error"] = write_cache_entry(path, key, {"K": K1, "N": N1, "parts": parts,
+                                                            "part_patch": owner}, ops.info)
     info.update(path=str(path), key=key, seconds=time.perf_counter() - t0)
-    return fe_tissue.SurfaceOperators(K=K1 * E, N=N1 * E, info=info)
+    return fe_tissue.SurfaceOperators(K=K1 * E, N=N1 * E, info=info, parts=parts * E,
+                                      part_patch=owner)
+
+
+def _parts_fit(arrays, n) -> bool:
+    """A cached node split that belongs to its N: one patch per row, ascending, every
+    patch present."""
+    owner = arrays["part_patch"]
+    return (len(owner) == len(arrays["parts"]) and np.array_equal(owner, np.round(owner))
+            and np.all(np.diff(owner) >= 0)
+            and np.array_equal(np.unique(owner), np.arange(n)))
 
 
 def load_or_build(geometry, thickness, young_modulus, poisson_ratio, **kwargs):
@@ -209,11 +227,12 @@ def load_or_build(geometry, thickness, young_modulus, poisson_ratio, **kwargs):
     K : ndarray, shape (6n, 6n)
         Condensed surface stiffness for this E (SI units, patch-major dofs).
     info : dict
-        The operators' ``info`` and ``N`` (ndarray (n, 6n), the local-normal output for
-        this E [N/m, N/rad]).
+        The operators' ``info``, ``N`` (ndarray (n, 6n), the local-normal output for
+        this E [N/m, N/rad]) and ``N_parts`` (``(parts, part_patch)`` of
+        :class:`~phri_spring.physics.continuum.tissue.SurfaceOperators`).
     """
     ops = load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, **kwargs)
-    return ops.K, dict(ops.info, N=ops.N)
+    return ops.K, dict(ops.info, N=ops.N, N_parts=(ops.parts, ops.part_patch))
 
 
 def load_surface_stiffness(path, geometry) -> np.ndarray:

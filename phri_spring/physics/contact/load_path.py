@@ -232,7 +232,7 @@ class ChunkedShares:
         if not ok.any():
             return
         # the force along n_e where the solution has it (friction, the coupled arm's lift-off
-        # cone): its reported forces are then the FSR-like traction integrals
+        # cone): its reported forces are then what the patches' sensors read
         normal = getattr(sol, "normal", None)
         forces = sol.forces if normal is None else normal
         u, contact, tang = sol.u, sol.contact, sol.tangential

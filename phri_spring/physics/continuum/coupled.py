@@ -45,10 +45,11 @@ from ...errors import ModelInputError
 from ..cuff.geometry import CuffGeometry, patch_frames, rigid_body_map  # noqa: F401 - re-exported
 from ..springs.model import OnGeometry, check_friction, field_unit
 from ..cuff.preload import strap_preload
+from .reading import PatchReading, parts_sum
 from ..springs.stiffness import shear_ratio_from_poisson
 
 __all__ = ["CoupledModel", "CoupledSystem", "SetFactors", "build_coupled_model", "patch_frames",
-           "rigid_patch_map", "scale_patches", "LIFT_OFF_MU"]
+           "rigid_patch_map", "LIFT_OFF_MU"]
 
 #: Coulomb coefficient of the coupled arm's interface without ``interface.friction_coefficient``
 #: (docs/model.md section 10.2): a touching patch's tie holds while its tangential force is
@@ -142,6 +143,10 @@ class CoupledModel(OnGeometry):
     N_out: np.ndarray | None = field(default=None, repr=False,
                                      metadata=field_unit("[N/m, N/rad]",
                                                           "docs/model.md section 10"))
+    #: what each patch's sensor reads (the compressive part of its normal traction,
+    #: :mod:`~phri_spring.physics.continuum.reading`); None: ``N_out`` C_t P, clipped at 0
+    reading: PatchReading | None = field(default=None, repr=False,
+                                         metadata=field_unit("[-]", "docs/model.md section 10.6"))
     #: without ``friction_coefficient``: a patch out of contact is released (the default,
     #: :data:`LIFT_OFF_MU`); False: every patch's ties stay bonded (the program of 10.3)
     lift_off: bool = True
@@ -164,12 +169,17 @@ class CoupledModel(OnGeometry):
 
     def reported_normal(self, P, touching) -> np.ndarray:
         """The normal force each patch reports (m, n) [N] for patch forces P (m, n d), local
-        axes, and ``touching`` (m, n) bool: the normal traction integrated over each touching
-        patch (``N_out`` C_t P, never below 0) or, without an output map, P along n_e;
-        0 for a patch out of contact."""
+        axes, and ``touching`` (m, n) bool: with the built-in FE's ``reading``, the
+        compressive part of the normal traction integrated over each touching patch (what an
+        FSR reads; section 10.6); else ``N_out`` C_t P (never below 0) or, without an output
+        map, P along n_e; 0 for a patch out of contact."""
         P = np.atleast_2d(P)
-        f = P[:, self.normal_dofs] if self.N_out is None else P @ (self.N_out @ self.C_t).T
-        f = np.maximum(f, 0.0)
+        if self.reading is not None:
+            f = self.reading(P)
+        elif self.N_out is None:
+            f = np.maximum(P[:, self.normal_dofs], 0.0)
+        else:
+            f = np.maximum(P @ (self.N_out @ self.C_t).T, 0.0)
         f[~np.asarray(touching, dtype=bool)] = 0.0
         return f
 
@@ -192,12 +202,7 @@ class CoupledModel(OnGeometry):
         """
         u = np.atleast_2d(np.asarray(u, dtype=float))
         S = np.atleast_2d(np.asarray(contact, dtype=bool))
-        system = self.contact_system(FactorCache(64))
-        out = np.zeros((len(u), self.n * self.dofs))
-        keys = set_keys(S)
-        for key, idx in key_groups(keys):
-            f = system.factors(key, S[idx[0]])
-            out[np.ix_(idx, f.tied)] = u[idx] @ f.force_map.T + f.force_offset
+        out = self.contact_system(FactorCache(64)).tied_forces(u, S)
         return out.reshape(len(u), self.n, self.dofs)
 
     def shear_components(self, u, contact) -> np.ndarray:
@@ -374,8 +379,24 @@ class CoupledSystem(ContactSystem):
         if self.model.N_out is None:
             return np.maximum(q, 0.0, out=out)
         S = q > 0
-        f = self._affine(np.atleast_2d(u), S, set_keys(S), "report")
-        return np.maximum(f, 0.0, out=out)
+        u = np.atleast_2d(u)
+        if self.model.reading is None:
+            f = np.maximum(self._affine(u, S, set_keys(S), "report"), 0.0)
+        else:
+            f = self.model.reported_normal(self.tied_forces(u, S), S)
+        if out is None:
+            return f
+        out[...] = f
+        return out
+
+    def tied_forces(self, u, S) -> np.ndarray:
+        """Patch forces P (m, n d), local axes [N, N*m], of solutions u (m, 6) with contact
+        sets S (m, n): the tied dofs' forces, 0 on the normals of patches outside S."""
+        P = np.zeros((len(u), self.model.n * self.model.dofs))
+        for key, idx in key_groups(set_keys(S)):
+            f = self.factors(key, S[idx[0]])
+            P[np.ix_(idx, f.tied)] = u[idx] @ f.force_map.T + f.force_offset
+        return P
 
     # ------------------------------------------------------------------ safeguard
     def _reduced_problem(self):
@@ -432,7 +453,7 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                         handle_axial_position: float | None = None,
                         pain_threshold_kpa: float = 120.0, normal_output=None,
                         friction_coefficient: float | None = None,
-                        lift_off: bool = True) -> CoupledModel:
+                        lift_off: bool = True, normal_parts=None) -> CoupledModel:
     """Assemble the coupled model of docs/model.md section 10.
 
     Parameters
@@ -454,6 +475,12 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
         N: the normal force a patch reports, N q [N], for the skin's patch motions q
         (same dof layout as K_surface), e.g. the integral of the normal traction over
         the patch (the built-in FE's). Default: the patch force along n_e.
+    normal_parts : (ndarray (k, 3n) or (k, 6n), ndarray of int (k,)), optional
+        ``normal_output`` split into parts (the built-in FE's skin nodes), same dof layout,
+        with the patch of each part, ascending: a patch then reports the sum of its parts'
+        positive values, the compressive part of its normal traction (what an FSR reads;
+        :mod:`~phri_spring.physics.continuum.reading`). ``normal_output`` defaults to
+        their sum per patch.
     friction_coefficient : float, optional
         Coulomb coefficient mu >= 0 [-] (docs/model.md section 12); None: a touching patch
         bonded, one out of contact released (``lift_off``, :data:`LIFT_OFF_MU`).
@@ -507,12 +534,25 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
     T = R @ rigid_patch_map(geometry, dofs)
 
     N_out = None
+    if normal_parts is not None and normal_output is None:
+        rows, owner = normal_parts
+        normal_output = parts_sum(np.asarray(rows, dtype=float), np.asarray(owner), n)
     if normal_output is not None:
         N_g = np.asarray(normal_output, dtype=float)
         if N_g.shape != (n, n * dofs) or not np.isfinite(N_g).all():
             raise ModelInputError(f"normal output: expected finite numbers of shape "
                                   f"({n}, {n * dofs}), got {N_g.shape}", "normal_output")
         N_out = N_g @ R.T
+    reading = None
+    if normal_parts is not None:
+        rows = np.asarray(normal_parts[0], dtype=float)
+        if rows.ndim != 2 or rows.shape[1] != n * dofs or not np.isfinite(rows).all():
+            raise ModelInputError(f"normal output parts: expected finite numbers of shape "
+                                  f"(k, {n * dofs})", "normal_output")
+        try:
+            reading = PatchReading.build(rows @ R.T, normal_parts[1], C_t, n)
+        except ValueError as exc:
+            raise ModelInputError(str(exc), "normal_output") from None
 
     f0, W_handles = strap_preload(geometry, strap_tension, strap_model, handle_angles_deg,
                                   handle_axial_position)
@@ -546,7 +586,7 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                          shear_ratio=eta, delta=delta, f0=f0, W_pre=W_pre, T=T, C=C, C_t=C_t,
                          strap_model=strap_model, pain_threshold_kpa=float(pain_threshold_kpa),
                          N_out=N_out, friction_coefficient=check_friction(friction_coefficient),
-                         lift_off=bool(lift_off))
+                         lift_off=bool(lift_off), reading=reading)
     # every patch lifted off: the tangential ties alone must hold the cuff
     try:
         model.contact_system(FactorCache(0))._reduced_problem()
@@ -555,20 +595,3 @@ def build_coupled_model(geometry: CuffGeometry, K_surface, k_cuff, *, poisson_ra
                               "this geometry (e.g. a single angular location)",
                               "geometry") from None
     return model
-
-
-def scale_patches(K, N, s):
-    """Each patch's tissue stiffened by its own factor s_e (n,) [-] (a per-patch modulus).
-
-    K' = D K D with D = diag(sqrt(s_e)) on patch e's dofs: patch e's own stiffness scales
-    by s_e, the coupling of patches e and f by sqrt(s_e s_f), and K' stays symmetric
-    positive definite. The normal output N (n, n d), if given, follows: row e and the
-    columns of patch f by sqrt(s_e) sqrt(s_f).
-    """
-    s = np.sqrt(np.asarray(s, dtype=float))
-    d = np.repeat(s, K.shape[0] // len(s))
-    K = K * d[:, None] * d[None, :]
-    if N is not None:
-        N = N * d[None, :] * s[:, None]
-    return K, N
-

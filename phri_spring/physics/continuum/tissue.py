@@ -42,6 +42,7 @@ from .assembly import assemble, assemble_tissue_fe  # noqa: F401
 from .mesh import (DEFAULT_LENGTH_FACTOR, DEFAULT_LEVEL, DEFAULT_PATCH_GAP,  # noqa: F401
                       FE_EXTRA_HINT, build_mesh, periodic_map, reduce_matrix, import_skfem,
                       check_material, patch_gap_problem, patch_plates, single_radius)
+from .reading import node_parts
 from .shape import layer_shape, reference_radius
 from .punch import (PUNCH_RADIUS, flat_punch_stiffness, modulus_from_indenter,  # noqa: F401
                        sneddon_punch_stiffness)
@@ -83,6 +84,13 @@ class SurfaceOperators:
         Normal-force output: f_n = N q is, per patch, the integral over the patch
         of the recovered normal traction n(x) . lambda(x) with the local inward
         normal n(x) [N per m or N per rad].
+    parts : ndarray, shape (k, 6n), optional
+        The rows of N split by skin node: row j is node j's contribution to the
+        integral of its patch ``part_patch[j]`` (``N`` is their sum per patch); what a
+        patch's sensor reads is the sum of their positive parts
+        (:mod:`~phri_spring.physics.continuum.reading`).
+    part_patch : ndarray of int, shape (k,), optional
+        The patch of each row of ``parts``, ascending.
     info : dict
         Mesh size and timings: ``level``, ``n_dofs``, ``n_elements``, ``n_surface_dofs``,
         ``length`` (modelled tissue length [m]), ``ends``, ``asymmetry`` (relative, before
@@ -92,6 +100,8 @@ class SurfaceOperators:
     K: np.ndarray
     N: np.ndarray
     info: dict
+    parts: np.ndarray | None = None
+    part_patch: np.ndarray | None = None
 
 
 #: the last few E = 1 results of this process, most recent last
@@ -108,7 +118,8 @@ def _geometry_key(geometry):
 
 def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_factor, ends,
                           patch_gap=DEFAULT_PATCH_GAP, bone=None):
-    """(K, N, info) of :func:`condensed_surface_operators` for E = 1 Pa, built."""
+    """(K, N, parts, part_patch, info) of :func:`condensed_surface_operators` for E = 1 Pa,
+    built."""
     t0 = time.perf_counter()
     fe = assemble_tissue_fe(geometry, thickness, poisson_ratio, level, length_factor, ends,
                             patch_gap=patch_gap, bone=bone)
@@ -120,6 +131,7 @@ def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_fact
     lam = mlu.solve(Rs)                      # recovered (L2-projected) traction
     K = Bs.T @ lam
     N = Cs.T @ lam
+    parts, part_patch = node_parts(Cs, lam, s)
     scale = np.max(np.abs(K))
     asym = float(np.max(np.abs(K - K.T)) / scale)
     K = 0.5 * (K + K.T)
@@ -129,7 +141,7 @@ def _build_unit_operators(geometry, thickness, poisson_ratio, level, length_fact
                 length_factor=float(length_factor), ends=ends, patch_gap=float(patch_gap),
                 asymmetry=asym,
                 seconds=time.perf_counter() - t0)
-    return K, N, info
+    return K, N, parts, part_patch, info
 
 
 def condensed_surface_operators(geometry, thickness, young_modulus, poisson_ratio, *,
@@ -186,9 +198,10 @@ def condensed_surface_operators(geometry, thickness, young_modulus, poisson_rati
                                                  float(patch_gap), bone)
         while len(_UNIT_CACHE) > _UNIT_CACHE_SIZE:
             _UNIT_CACHE.popitem(last=False)
-    K1, N1, info = _UNIT_CACHE[key]
+    K1, N1, parts1, owner, info = _UNIT_CACHE[key]
     E = float(young_modulus)
-    return SurfaceOperators(K=K1 * E, N=N1 * E, info=dict(info))
+    return SurfaceOperators(K=K1 * E, N=N1 * E, info=dict(info), parts=parts1 * E,
+                            part_patch=owner.copy())
 
 
 def condensed_surface_stiffness(geometry, thickness, young_modulus, poisson_ratio, *,

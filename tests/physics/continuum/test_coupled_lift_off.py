@@ -80,6 +80,15 @@ def _check(model, W, sol, mu):
     assert np.all(F[ok][off] == 0.0)
     assert np.all(tn <= mu * np.maximum(fn, 0.0) + 1e-9 * scale)
     assert np.array_equal(sol.contact[ok], ~off)
+    # the label column (what the patch's sensor reads, section 10.6) reads 0 N only where
+    # the patch is out of contact: a patch that reads nothing carries nothing
+    label = sol.forces[ok]
+    assert np.all(label >= 0.0)
+    quiet = label == 0.0
+    assert np.all(tn[quiet] == 0.0) and np.all(F[ok][quiet] == 0.0)
+    if sol.moments is not None:
+        assert np.all(sol.moments[ok][quiet] == 0.0)
+    assert np.all(label[~off] > 0.0)
     return ok
 
 

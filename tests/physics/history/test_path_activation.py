@@ -131,8 +131,11 @@ def test_a_stiffer_layer_under_a_rigid_cuff_carries_the_same_forces(a, c, seed):
     ref = solve(base, W)
     ok = ref.converged
     np.testing.assert_array_equal(act.converged, ok)
+    # 1e-6: a sample where a patch slides takes its slip direction from the event's Newton
+    # iterate, accepted within 1e3 STATE_RTOL (1e-9) of the wrench (friction/events.py), and
+    # the path carries it on; seed 151 (a=1, c=2) differs by 1.2e-7 of the peak there
     np.testing.assert_allclose(act.forces[ok], ref.forces[ok], rtol=0,
-                               atol=1e-8 * (np.abs(ref.forces[ok]).max() + 1.0))
+                               atol=1e-6 * (np.abs(ref.forces[ok]).max() + 1.0))
 
 
 def test_a_contracted_muscle_under_the_hoop_presses_harder():
