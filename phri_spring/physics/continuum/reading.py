@@ -115,8 +115,11 @@ class PatchReading:
         starts = self.starts
         out = np.empty((m, len(starts)))
         Gt = self.G.T
+        buf = np.empty((min(m, _CHUNK), len(self.owner)))
         for a in range(0, m, _CHUNK):
-            g = P[a:a + _CHUNK] @ Gt
+            Pc = P[a:a + _CHUNK]
+            g = buf[:len(Pc)]
+            np.matmul(Pc, Gt, out=g)
             np.maximum(g, 0.0, out=g)
-            out[a:a + _CHUNK] = np.add.reduceat(g, starts, axis=1)
+            np.add.reduceat(g, starts, axis=1, out=out[a:a + len(Pc)])
         return out
