@@ -32,7 +32,7 @@ AXES = ("Kx", "Ky", "Kz", "Krx", "Kry", "Krz")
 
 
 def stiffness(g, nu, level):
-    K1, _, info = fe._build_unit_operators(g, THICKNESS, nu, level, fe.DEFAULT_LENGTH_FACTOR,
+    K1, _, _, _, info = fe._build_unit_operators(g, THICKNESS, nu, level, fe.DEFAULT_LENGTH_FACTOR,
                                            "fixed")
     T = rigid_cuff_fe.rigid_cuff_map(g.points)
     H = E * np.diag(T.T @ K1 @ T)

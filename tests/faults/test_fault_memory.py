@@ -437,7 +437,7 @@ raw["geometry"]["angles"].update(count=3, step=120.0)
 raw["cuff"]["stiffness"] = 2e5
 cfg = config_from_dict(raw, path=None, base_dir={str(HUMAN.parent)!r})
 b = rss("VmRSS")
-K, N, info = fe_tissue._build_unit_operators(geometry_from_config(cfg), cfg.continuum_thickness,
+K, N, parts, owner, info = fe_tissue._build_unit_operators(geometry_from_config(cfg), cfg.continuum_thickness,
                                              0.45, 3, 6.0, "fixed")
 print(json.dumps({{"added": rss("VmHWM") - b, "hex": info["n_elements"],
                   "dofs": info["n_dofs"], "raw": raw}}))

@@ -89,6 +89,13 @@ COUPLED_HELD_COPIES = 6
 #: coupled per-set cache entries (69 n doubles each) counted; a log that meets more
 #: distinct contact sets holds more (the cache keeps at most 16,384)
 COUPLED_CACHED_SETS = 512
+#: what the coupled patches read (physics/continuum/reading.py): skin-node rows of 6n
+#: doubles, (2 level + 1)^2 nodes per patch at the FE's default level 3, alive as the
+#: cached rows, their local-axes product and the reading's own map while the model is
+#: built (the map held per further model), plus one 1,024-row chunk of node values
+READING_NODES_PER_PATCH = 49
+READING_BUILD_COPIES = 3
+READING_CHUNK_ROWS = 1024
 #: rows x 6 x n gathered per block when rows of a coupled chunk have different sets
 COUPLED_GATHER_BYTES_PER_ELEMENT = 2 * 4096 * 6 * 8
 #: built-in FE: scikit-fem's bases and quadrature whatever the mesh, then per hexahedron the
@@ -345,10 +352,14 @@ def fe_mesh_size(cfg, geometry=None) -> tuple:
 def dense_coupling_terms(n_elements: int, n_models: int = 1) -> dict:
     """The ``coupled`` term of a model holding dense (6n x 6n) matrices (about
     :data:`COUPLED_DENSE_COPIES` live while it is built, :data:`COUPLED_HELD_COPIES` held per
-    further model) and its cached solves: an arm's :attr:`ArmMemory.model_terms`."""
+    further model) and its cached solves, and the ``coupled_reading`` term of its patches'
+    node rows (:data:`READING_NODES_PER_PATCH`): an arm's :attr:`ArmMemory.model_terms`."""
     nd = 6 * int(n_elements)
+    nodes = READING_NODES_PER_PATCH * int(n_elements)
     return {"coupled": (COUPLED_DENSE_COPIES + COUPLED_HELD_COPIES * (n_models - 1)) * nd * nd * 8
-            + n_models * COUPLED_CACHED_SETS * 69 * int(n_elements) * 8}
+            + n_models * COUPLED_CACHED_SETS * 69 * int(n_elements) * 8,
+            "coupled_reading": ((READING_BUILD_COPIES + n_models - 1) * nodes * nd
+                                + READING_CHUNK_ROWS * nodes) * 8}
 
 
 def fe_to_build(cfg, cache_dir=None) -> Optional[tuple]:
