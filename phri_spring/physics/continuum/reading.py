@@ -79,7 +79,7 @@ def parts_sum(rows, owner, n):
     return N
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class PatchReading:
     """The patches' sensor reading f (m, n) [N] from their forces P (m, n d), local axes.
 
