@@ -37,6 +37,8 @@ from ...errors import ModelInputError
 from ..contact.paths import friction_solution, path_wrenches
 from ..contact.solution import Solution
 from ..friction.form import InterfaceForm, initial_state, interface_form
+from ..friction.normal import NormalResponse
+from ..laws.series import SeriesElement
 from ..friction.states import interface_mu
 from ..friction.path import solve_path
 from .model import activation_scale, check_activation_factor
@@ -58,6 +60,26 @@ def stiffened_layer(form: InterfaceForm, scale: float, offset=None) -> Interface
     delta = form.delta if offset is None else form.delta + C_skin @ offset
     return InterfaceForm(n=form.n, d=form.d, C=C, C_skin=C_skin, T=form.T, delta=delta,
                          W_pre=form.W_pre, mu=form.mu, diagonal=False)
+
+
+def _spring_split(model, form: InterfaceForm):
+    """(tissue, cuff, element): the diagonal compliance of a compliant spring model's form
+    split into its tissue and cuff springs' parts (3n,) (normal 1/k, tangential 1/(eta k),
+    k at small compression), and its series element; None for another model (built per
+    activation)."""
+    element = getattr(model, "element", None)
+    if (element is None or element.law is None or getattr(model, "arm", None) != "compliant"
+            or not form.diagonal):
+        return None
+    eta = model.k_shear / model.k
+    c = np.zeros(len(model.k))
+    finite = np.isfinite(element.k_cuff)
+    c[finite] = 1.0 / element.k_cuff[finite]
+    cuff = np.stack([c, c / eta, c / eta], axis=1).ravel()
+    tissue = np.diag(form.C) - cuff
+    if not np.all(tissue > 0):
+        return None
+    return tissue, cuff, element
 
 
 class PathActivation:
@@ -99,6 +121,7 @@ class PathActivation:
         self.activation_factor = activation_factor
         self._scaled = scaled
         self._form = interface_form(base)
+        self._split = _spring_split(base, self._form) if scaled is not None else None
         self._forms: dict[float, tuple[InterfaceForm, dict]] = {}
         self.state = None
 
@@ -118,6 +141,17 @@ class PathActivation:
             f = self._form
             if s == 1.0:
                 form = f
+            elif self._split is not None:
+                # the spring arm: the tissue's compliance over s, the cuff's as it is, and
+                # a nonlinear law's stiffness s k0 (the model built with s k_t has this
+                # form, without building it per sample)
+                tissue, cuff, element = self._split
+                normal = None
+                if f.normal_response is not None:
+                    law = element.law
+                    normal = NormalResponse(SeriesElement(type(law)(law.k0 * s, **law.params),
+                                                          element.k_cuff))
+                form = replace(f, C=np.diag(tissue / s + cuff), normal_response=normal)
             elif self._scaled is not None:
                 # the stiffened springs on the unactivated preload compressions
                 form = replace(interface_form(self._scaled(s), like=f), delta=f.delta)

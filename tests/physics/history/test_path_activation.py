@@ -155,3 +155,42 @@ def test_bad_factor_and_the_bonded_legacy_mode_are_refused():
     bonded = build_coupled_model(g, kernel_K(g), 2e5, lift_off=False)
     with pytest.raises(ModelInputError, match="lift-off"):
         PathActivation(bonded, 2.0)
+
+
+@pytest.mark.parametrize("k_c", [2e5, np.array([3e4, 6e4, 1.2e5, 2.5e5, 5e5, 1e6, np.inf] * 3)])
+@pytest.mark.parametrize("strap", ["hoop", "handles"])
+@pytest.mark.parametrize("law", [("linear", {}), ("exponential", {"stiffening": 115.0})])
+def test_a_spring_arm_is_stiffened_in_its_form(k_c, strap, law):
+    # the spring arm with friction takes its stiffened form from the tissue's and the cuff's
+    # compliances (no model built per activation): it is the form of the model built
+    # independently with s k_t, its preload offset kept as the resting tissue's
+    from phri_spring.physics.friction.form import interface_form
+    from phri_spring.physics.springs.model import build_model
+
+    g = cuff_geometry(row_x=[-0.025, 0.0, 0.025], radius=0.045, row_width=0.025,
+                      angle_start_deg=75.0, angle_step_deg=35.0, angle_count=7)
+    k_t = np.linspace(3000.0, 9000.0, g.n)
+
+    def model(s):
+        return build_model(g, s * k_t, k_c, strap_model=strap, friction_coefficient=0.5,
+                           law=law[0], law_parameters=law[1])
+
+    built = []
+    act = PathActivation(model(1.0), 2.0, scaled=lambda s: built.append(s) or model(s))
+    base = interface_form(model(1.0))
+    for s in (0.5, 1.37, 2.0, 7.5):
+        got = act.form(s)[0]
+        assert built == []                  # no model was built for the activation
+        ref = interface_form(model(s))
+        assert got.diagonal
+        np.testing.assert_allclose(np.diag(got.C), np.diag(ref.C), rtol=1e-13, atol=0)
+        if law[0] == "linear":
+            assert got.normal_response is None and ref.normal_response is None
+        else:   # the normal law of the stiffened tissue in series with the cuff
+            gaps = np.linspace(-1e-3, 0.02, 40)[:, None] * np.ones(g.n)
+            for a, b in zip(got.normal_response.evaluate(gaps)[:2],
+                            ref.normal_response.evaluate(gaps)[:2]):
+                np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(got.delta, base.delta)
+        np.testing.assert_allclose(got.W_pre, ref.W_pre, rtol=1e-14, atol=1e-14)
+        np.testing.assert_array_equal(got.T, ref.T)
