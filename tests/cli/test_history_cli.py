@@ -28,16 +28,27 @@ def _line(result) -> str:
     return text.strip()
 
 
-def _log(path, m=120, activation=None, name="activation", seed=0):
-    rng = np.random.default_rng(seed)
-    t = 0.01 * np.arange(m)
-    W = np.cumsum(rng.normal(size=(m, 6)), axis=0) * [2, 2, 2, 0.05, 0.05, 0.05]
+def _write_log(path, W, activation=None, name="activation"):
+    """The wrenches W (m, 6) as a 100 Hz CSV log, with an activation column if given."""
     df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-    df.insert(0, "time", t)
+    df.insert(0, "time", 0.01 * np.arange(len(W)))
     if activation is not None:
         df[name] = activation
     df.to_csv(path, index=False)
     return path
+
+
+def _step_log(path, m: int, fy: float):
+    """A log of m samples: no load, then Fy = ``fy`` [N] held from sample 50."""
+    W = np.zeros((m, 6))
+    W[50:, 1] = fy
+    return _write_log(path, W)
+
+
+def _log(path, m=120, activation=None, name="activation", seed=0):
+    rng = np.random.default_rng(seed)
+    W = np.cumsum(rng.normal(size=(m, 6)), axis=0) * [2, 2, 2, 0.05, 0.05, 0.05]
+    return _write_log(path, W, activation, name)
 
 
 def _config(tmp_path, **tissue):
@@ -107,13 +118,7 @@ def test_the_coupled_arm_relaxes_and_its_hyperelastic_layers_refuse(tmp_path):
     """The linear layer relaxes (docs/model.md section 15.1): held, the load settles on the
     softer relaxed layer, so the forces move after a step where the elastic arm's stay; a
     hyperelastic layer is refused in one line before any identification."""
-    m = 300
-    t = 0.01 * np.arange(m)
-    W = np.zeros((m, 6))
-    W[50:, 1] = -20.0
-    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-    df.insert(0, "time", t)
-    df.to_csv(tmp_path / "step.csv", index=False)
+    _step_log(tmp_path / "step.csv", 300, -20.0)
     layer = {"thickness": 0.02, "young_modulus": 3.0e4}
     out = {}
     for name, extra in (("elastic", {}), ("relax", {"relaxation": {"fractions": [0.4],
@@ -138,13 +143,7 @@ def test_the_coupled_arm_relaxes_and_its_hyperelastic_layers_refuse(tmp_path):
 
 def test_relaxation_shows_after_a_load_step(tmp_path):
     """A step of load held: the elastic forces stay, the relaxing ones move (creep)."""
-    m = 400
-    t = 0.01 * np.arange(m)
-    W = np.zeros((m, 6))
-    W[50:, 1] = -30.0
-    df = pd.DataFrame(W, columns=["Fx", "Fy", "Fz", "Mx", "My", "Mz"])
-    df.insert(0, "time", t)
-    df.to_csv(tmp_path / "step.csv", index=False)
+    _step_log(tmp_path / "step.csv", 400, -30.0)
     elastic = _config(tmp_path)
     r = _run("simulate", elastic, tmp_path / "step.csv", "-o", tmp_path / "e.csv")
     assert r.exit_code == 0

@@ -48,18 +48,24 @@ def stiffening_config(tmp_path):
     return path
 
 
-def test_a_replayed_activation_column_gives_the_forces_of_simulate(tmp_path):
-    cfg, log = stiffening_config(tmp_path), activation_log(tmp_path)
+def replay_matches_simulate(tmp_path, cfg, log, *options) -> pd.DataFrame:
+    """``live`` replaying ``log`` on standard input gives the forces ``simulate`` gives for
+    it (same options, 1e-9 N); returns the live output."""
     sim = tmp_path / "sim.parquet"
-    res = run("simulate", cfg, log, "-o", sim, "--column", "activation=EMG (norm)")
+    res = run("simulate", cfg, log, "-o", sim, *options)
     assert res.exit_code == 0, res.output
     out = tmp_path / "live.parquet"
-    res = run("live", cfg, "--source", "-", "-o", out, "--column", "activation=EMG (norm)",
-              stdin=log.read_bytes())
+    res = run("live", cfg, "--source", "-", "-o", out, *options, stdin=log.read_bytes())
     assert res.exit_code == 0, res.output
     live, ref = pd.read_parquet(out), pd.read_parquet(sim)
     np.testing.assert_allclose(live[LABELS].to_numpy(), ref[LABELS].to_numpy(), rtol=0,
                                atol=1e-9)
+    return live
+
+
+def test_a_replayed_activation_column_gives_the_forces_of_simulate(tmp_path):
+    cfg, log = stiffening_config(tmp_path), activation_log(tmp_path)
+    live = replay_matches_simulate(tmp_path, cfg, log, "--column", "activation=EMG (norm)")
     # and the activation was used: without the column the forces of a = 1 differ
     plain = tmp_path / "plain.parquet"
     lines = log.read_text().splitlines()
@@ -198,13 +204,4 @@ def test_the_coupled_arm_streams_its_relaxing_and_contracting_layer_as_simulate(
     cfg = tmp_path / "coupled.yaml"
     cfg.write_text(yaml.safe_dump(raw))
     log = activation_log(tmp_path, rows=150, name="activation")
-    sim = tmp_path / "sim.parquet"
-    res = run("simulate", cfg, log, "-o", sim, "--arm", "coupled")
-    assert res.exit_code == 0, res.output
-    out = tmp_path / "live.parquet"
-    res = run("live", cfg, "--source", "-", "-o", out, "--arm", "coupled",
-              stdin=log.read_bytes())
-    assert res.exit_code == 0, res.output
-    live, ref = pd.read_parquet(out), pd.read_parquet(sim)
-    np.testing.assert_allclose(live[LABELS].to_numpy(), ref[LABELS].to_numpy(), rtol=0,
-                               atol=1e-9)
+    replay_matches_simulate(tmp_path, cfg, log, "--arm", "coupled")

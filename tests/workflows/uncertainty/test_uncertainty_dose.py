@@ -47,19 +47,31 @@ def case(tmp_path):
     return d, cfg, log
 
 
+def simulate(cfg, log, out, *options):
+    """``phri simulate CFG LOG -o OUT OPTIONS``, its exit checked."""
+    res = CliRunner().invoke(phri, ["simulate", str(cfg), str(log), "-o", str(out), *options])
+    assert res.exit_code == 0, res.output
+    return res
+
+
+def without_curve(case):
+    """The case's config rewritten without its tolerance section; (config, log)."""
+    d, cfg, log = case
+    d.pop("tolerance")
+    cfg.write_text(yaml.safe_dump(d))
+    return cfg, log
+
+
 def test_config_curve_gives_the_dose_percentiles(tmp_path, case):
     # the config's tolerance section is no longer ignored by --uncertainty: without scatter
     # every draw is the nominal run, and its dose is t / t_allowed(peak pressure)
     _, cfg, log = case
     plain = tmp_path / "plain.csv"
-    res = CliRunner().invoke(phri, ["simulate", str(cfg), str(log), "-o", str(plain), "-q"])
-    assert res.exit_code == 0, res.output
+    simulate(cfg, log, plain, "-q")
     peak = pd.read_csv(plain)["peak_pressure_kPa"].to_numpy()
     assert np.ptp(peak) < 1e-9 * peak[0]                        # a constant pressure
     out = tmp_path / "mc.csv"
-    res = CliRunner().invoke(phri, ["simulate", str(cfg), str(log), "-o", str(out),
-                                    "--uncertainty", "5", "--uncertainty-sd", "tissue=0"])
-    assert res.exit_code == 0, res.output
+    res = simulate(cfg, log, out, "--uncertainty", "5", "--uncertainty-sd", "tissue=0")
     t = pd.read_csv(out)
     assert list(t.columns[-3:]) == list(DOSE_COLUMNS)
     expected = TIMES / linder_ganz_allowed_s(peak[0])
@@ -73,14 +85,10 @@ def test_config_curve_gives_the_dose_percentiles(tmp_path, case):
 def test_tolerance_option_with_scatter(tmp_path, case):
     # --tolerance with --uncertainty runs (it was refused): with load-cell noise the
     # percentiles are ordered, never go down and start at 0 (the first sample weighs no step)
-    d, cfg, log = case
-    d.pop("tolerance")
-    cfg.write_text(yaml.safe_dump(d))
+    cfg, log = without_curve(case)
     out = tmp_path / "mc.parquet"
-    res = CliRunner().invoke(phri, ["simulate", str(cfg), str(log), "-o", str(out), "-q",
-                                    "--uncertainty", "40", "--uncertainty-sd", "tissue=0,force=3",
-                                    "--tolerance", "linder_ganz_2006"])
-    assert res.exit_code == 0, res.output
+    simulate(cfg, log, out, "-q", "--uncertainty", "40", "--uncertainty-sd", "tissue=0,force=3",
+             "--tolerance", "linder_ganz_2006")
     dose = pd.read_parquet(out)[list(DOSE_COLUMNS)].to_numpy()
     assert np.all(dose[0] == 0.0)
     assert np.all(np.diff(dose, axis=0) >= 0.0)
@@ -89,13 +97,9 @@ def test_tolerance_option_with_scatter(tmp_path, case):
 
 
 def test_without_a_curve_no_dose_columns(tmp_path, case):
-    d, cfg, log = case
-    d.pop("tolerance")
-    cfg.write_text(yaml.safe_dump(d))
+    cfg, log = without_curve(case)
     out = tmp_path / "mc.csv"
-    res = CliRunner().invoke(phri, ["simulate", str(cfg), str(log), "-o", str(out), "-q",
-                                    "--uncertainty", "3"])
-    assert res.exit_code == 0, res.output
+    simulate(cfg, log, out, "-q", "--uncertainty", "3")
     assert not any(c.startswith("dose") for c in pd.read_csv(out).columns)
 
 
