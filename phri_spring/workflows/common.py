@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 
 import numpy as np
 
@@ -152,14 +151,8 @@ def history_model(model, cfg: Config):
         # spring arm's tissue springs with friction (docs/model.md section 15.2)
         from ..physics.history.path import PathActivation
 
-        geom = None if coupled else geometry_from_config(cfg)
-
-        def scaled(s: float):
-            k = np.asarray(cfg.tissue_stiffness, dtype=float) * s
-            return _spring_model(dataclasses.replace(cfg, tissue_stiffness=k), model.arm, geom)
-
         try:
-            return PathActivation(model, cfg.activation_factor, None if coupled else scaled)
+            return PathActivation(model, cfg.activation_factor)
         except ModelInputError as exc:
             raise ConfigError(str(exc), file=cfg.path, key=key) from None
     try:
@@ -180,10 +173,9 @@ def refuse_activation(cfg: Config, arm: str) -> None:
                           f"column", file=cfg.path, key="tissue.activation_factor")
 
 
-def _spring_model(cfg: Config, arm: str, geom: CuffGeometry | None = None):
-    """The spring network of docs/model.md sections 1-4 for the compliant or rigid arm (on
-    ``geom``, the config's geometry, if already made)."""
-    geom = geometry_from_config(cfg) if geom is None else geom
+def _spring_model(cfg: Config, arm: str):
+    """The spring network of docs/model.md sections 1-4 for the compliant or rigid arm."""
+    geom = geometry_from_config(cfg)
     k_t = tissue_element_stiffness(cfg.tissue_stiffness, geom.areas, cfg.tissue_basis,
                                    cfg.indenter_diameter)
     k_c = cfg.cuff_stiffness

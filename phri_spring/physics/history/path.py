@@ -3,8 +3,9 @@ arms with friction, stiffened sample by sample.
 
 docs/model.md section 15.2. A linear elastic layer whose moduli (Young's modulus, at a fixed
 Poisson ratio) are scaled by s has every stiffness scaled by s: its condensed stiffness
-K_t becomes s K_t, its compliance C_t / s, and the traction integral a patch reports
-(N_out q, linear in the moduli too) s N_out. With the activation a of a sample,
+K_t becomes s K_t, its compliance C_t / s, and the traction values a patch's reading sums
+(docs/model.md section 10.6, linear in the moduli too) s times theirs. With the activation a
+of a sample,
 s = 1 + (c - 1) a (:func:`~phri_spring.physics.history.model.activation_scale`), so each
 sample is the coupled model of section 10 with
 
@@ -13,18 +14,20 @@ sample is the coupled model of section 10 with
 C_c the cuff's compliance (unchanged: activation stiffens the tissue, not the cuff) and
 delta the strap's preload offset, a displacement: the strap was tightened on the resting
 muscle, and contracting it under the strap presses the skin harder, as on the spring arms
-(section 15.2; with the handles strap the preload is a wrench, delta = 0). The reported
-normal force N_out C_t P does not depend on s for given patch forces. The interface's
+(section 15.2; with the handles strap the preload is a wrench, delta = 0). What a patch
+reads does not depend on s for given patch forces. The interface's
 path state (which patches are released, stuck or sliding, and their slip) is carried from
 sample to sample as it is without activation: a change of stiffness moves the skin under
 a stuck patch, not the patch's tie. Consecutive samples with the same activation share
 one compliance form and are solved together.
 
 The spring arms with ``interface.friction_coefficient`` run along the same path solver
-(section 12); their tissue springs stiffened by s are the spring model built with the
-tissue stiffness s k_t (``scaled``: the cuff unchanged, the exponential law's k0 scaled
-and its rate kept, so that every tissue force is s times the unactivated one), their
-preload compressions kept as the unactivated model's.
+(section 12); their tissue springs stiffened by s are those of the spring model built with
+the tissue stiffness s k_t: the tissue's compliance 1/(s k0) normal and 1/(eta s k0)
+tangential in series with the unchanged cuff's, a nonlinear law rebuilt with s k0 and its
+other parameters (the exponential law's rate) kept, so that every tissue force is s times
+the unactivated one; their preload compressions are kept as the unactivated model's. The
+rigid arm has no tissue: activation leaves it as it is.
 """
 
 from __future__ import annotations
@@ -62,24 +65,20 @@ def stiffened_layer(form: InterfaceForm, scale: float, offset=None) -> Interface
                          W_pre=form.W_pre, mu=form.mu, diagonal=False)
 
 
-def _spring_split(model, form: InterfaceForm):
-    """(tissue, cuff, element): the diagonal compliance of a compliant spring model's form
-    split into its tissue and cuff springs' parts (3n,) (normal 1/k, tangential 1/(eta k),
-    k at small compression), and its series element; None for another model (built per
-    activation)."""
-    element = getattr(model, "element", None)
-    if (element is None or element.law is None or getattr(model, "arm", None) != "compliant"
-            or not form.diagonal):
+def _spring_split(model):
+    """(tissue, cuff) (3n,): the diagonal compliance of a spring model's form split into
+    its tissue springs' part at small compression (1/k0 normal, 1/(eta k0) tangential) and
+    its cuff springs' (1/k_c, 1/(eta k_c); 0 for a rigid cuff); None for the rigid arm (no
+    tissue)."""
+    law = model.element.law
+    if law is None or model.arm != "compliant":
         return None
     eta = model.k_shear / model.k
-    c = np.zeros(len(model.k))
-    finite = np.isfinite(element.k_cuff)
-    c[finite] = 1.0 / element.k_cuff[finite]
-    cuff = np.stack([c, c / eta, c / eta], axis=1).ravel()
-    tissue = np.diag(form.C) - cuff
-    if not np.all(tissue > 0):
-        return None
-    return tissue, cuff, element
+    with np.errstate(divide="ignore"):
+        c = 1.0 / model.element.k_cuff
+    t = 1.0 / law.k0
+    return (np.stack([t, t / eta, t / eta], axis=1).ravel(),
+            np.stack([c, c / eta, c / eta], axis=1).ravel())
 
 
 class PathActivation:
@@ -90,13 +89,9 @@ class PathActivation:
     ----------
     base : CoupledModel or SpringModel
         The linear coupled arm (docs/model.md section 10), hoop or handles strap, with or
-        without ``friction_coefficient``; or (with ``scaled``) a spring arm with
-        ``friction_coefficient``.
+        without ``friction_coefficient``; or a spring arm with ``friction_coefficient``.
     activation_factor : float
         c of s = 1 + (c - 1) a [-], > 0.
-    scaled : callable, optional
-        s -> the model with its tissue stiffened by s (needed for a spring arm; the
-        coupled arm's layer is scaled here).
 
     Raises
     ------
@@ -107,8 +102,9 @@ class PathActivation:
 
     has_history = True
 
-    def __init__(self, base, activation_factor: float = 1.0, scaled=None):
-        if scaled is None and (not hasattr(base, "C_t") or hasattr(base, "solve_wrenches")):
+    def __init__(self, base, activation_factor: float = 1.0):
+        spring = hasattr(base, "element")
+        if not spring and (not hasattr(base, "C_t") or hasattr(base, "solve_wrenches")):
             raise ModelInputError("activation on the coupled arm needs its linear continuum "
                                   "layer (the hyperelastic layers' reduced models are built "
                                   "for one modulus)", "activation_factor")
@@ -119,9 +115,9 @@ class PathActivation:
                                   "ties everywhere is a legacy mode)", "activation_factor")
         self.base = base
         self.activation_factor = activation_factor
-        self._scaled = scaled
+        self._spring = spring
         self._form = interface_form(base)
-        self._split = _spring_split(base, self._form) if scaled is not None else None
+        self._split = _spring_split(base) if spring else None
         self._forms: dict[float, tuple[InterfaceForm, dict]] = {}
         self.state = None
 
@@ -139,22 +135,20 @@ class PathActivation:
         hit = self._forms.get(s)
         if hit is None:
             f = self._form
-            if s == 1.0:
+            if s == 1.0 or (self._spring and self._split is None):
                 form = f
-            elif self._split is not None:
-                # the spring arm: the tissue's compliance over s, the cuff's as it is, and
-                # a nonlinear law's stiffness s k0 (the model built with s k_t has this
-                # form, without building it per sample)
-                tissue, cuff, element = self._split
+            elif self._spring:
+                # the tissue springs' compliance over s, the cuff's as it is, a nonlinear
+                # law with s k0, on the unactivated preload compressions (the form of the
+                # model built with s k_t, without building it per sample)
+                tissue, cuff = self._split
                 normal = None
                 if f.normal_response is not None:
+                    element = self.base.element
                     law = element.law
                     normal = NormalResponse(SeriesElement(type(law)(law.k0 * s, **law.params),
                                                           element.k_cuff))
                 form = replace(f, C=np.diag(tissue / s + cuff), normal_response=normal)
-            elif self._scaled is not None:
-                # the stiffened springs on the unactivated preload compressions
-                form = replace(interface_form(self._scaled(s), like=f), delta=f.delta)
             else:
                 form = stiffened_layer(f, s)
             if len(self._forms) >= _FORMS:

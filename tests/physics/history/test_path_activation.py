@@ -175,12 +175,16 @@ def test_a_spring_arm_is_stiffened_in_its_form(k_c, strap, law):
         return build_model(g, s * k_t, k_c, strap_model=strap, friction_coefficient=0.5,
                            law=law[0], law_parameters=law[1])
 
-    built = []
-    act = PathActivation(model(1.0), 2.0, scaled=lambda s: built.append(s) or model(s))
+    act = PathActivation(model(1.0), 2.0)
     base = interface_form(model(1.0))
+    rigid = build_model(g, k_t, np.where(np.isfinite(k_c), k_c, 1e6), arm="rigid",
+                        strap_model=strap, friction_coefficient=0.5)
     for s in (0.5, 1.37, 2.0, 7.5):
+        # the rigid arm has no tissue: its form stays the one at rest
+        still = PathActivation(rigid, 2.0).form(s)[0]
+        np.testing.assert_array_equal(still.C, interface_form(rigid).C)
+        assert still.normal_response is None
         got = act.form(s)[0]
-        assert built == []                  # no model was built for the activation
         ref = interface_form(model(s))
         assert got.diagonal
         np.testing.assert_allclose(np.diag(got.C), np.diag(ref.C), rtol=1e-13, atol=0)
