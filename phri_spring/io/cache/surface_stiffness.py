@@ -25,6 +25,7 @@ import numpy as np
 
 from ...errors import ConfigError, DataError
 from ...physics.continuum import tissue as fe_tissue
+from ...physics.continuum.reading import grouped_by_patch
 from ..outputs.atomic import atomic_file
 
 __all__ = ["CACHE_FORMAT_VERSION", "default_cache_dir", "cache_key", "load_or_build_operators",
@@ -208,10 +209,7 @@ def load_or_build_operators(geometry, thickness, young_modulus, poisson_ratio, *
 def _parts_fit(arrays, n) -> bool:
     """A cached node split that belongs to its N: one patch per row, ascending, every
     patch present."""
-    owner = arrays["part_patch"]
-    return (len(owner) == len(arrays["parts"]) and np.array_equal(owner, np.round(owner))
-            and np.all(np.diff(owner) >= 0)
-            and np.array_equal(np.unique(owner), np.arange(n)))
+    return grouped_by_patch(arrays["part_patch"], len(arrays["parts"]), n)
 
 
 def load_or_build(geometry, thickness, young_modulus, poisson_ratio, **kwargs):

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PatchReading", "node_parts", "parts_sum"]
+__all__ = ["PatchReading", "grouped_by_patch", "node_parts", "parts_sum"]
 
 #: rows of patch forces turned into node values at a time (bounds the temporary to
 #: _CHUNK x k floats: 8 MB for the 3 x 7 cuff's 1,029 nodes)
@@ -72,6 +72,15 @@ def node_parts(C_skin, traction, skin_dofs):
     return rows[by_patch], owner[by_patch]
 
 
+def grouped_by_patch(owner, rows: int, n: int) -> bool:
+    """Whether ``owner`` (the patch of each of ``rows`` node rows) names whole patch numbers
+    in ascending order with every patch 0..n-1 present."""
+    owner = np.asarray(owner)
+    return (owner.ndim == 1 and len(owner) == rows and np.array_equal(owner, np.round(owner))
+            and bool(np.all(np.diff(owner) >= 0))
+            and np.array_equal(np.unique(owner), np.arange(n)))
+
+
 def parts_sum(rows, owner, n):
     """The traction integral N (n, p): the rows summed per patch."""
     N = np.zeros((n, rows.shape[1]))
@@ -98,12 +107,11 @@ class PatchReading:
     def build(cls, rows_local, owner, C_t, n):
         """From node rows in local axes (k, n d) [N per m or per rad] and the tissue
         compliance C_t; ``owner`` ascending with every patch 0..n-1 present."""
-        owner = np.asarray(owner, dtype=np.int64)
-        if (len(owner) != len(rows_local) or np.any(np.diff(owner) < 0)
-                or not np.array_equal(np.unique(owner), np.arange(n))):
+        if not grouped_by_patch(owner, len(rows_local), n):
             raise ValueError("normal output parts: expected rows grouped by patch, every "
                              "patch with at least one row")
-        return cls(G=np.ascontiguousarray(rows_local @ C_t), owner=owner)
+        return cls(G=np.ascontiguousarray(rows_local @ C_t),
+                   owner=np.asarray(owner, dtype=np.int64))
 
     @property
     def starts(self) -> np.ndarray:
