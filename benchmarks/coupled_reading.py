@@ -10,7 +10,8 @@ directions of the load cell's y-z plane, 100 samples each, Fx noise 2 N): the sa
 solved, the patch-samples whose label reads 0 N while the patch carries a tangential force
 or a moment (above 1e-9), for the clipped integral and for the reading; the smallest
 reading of a touching patch; the largest excess of a tangential force over mu times the
-reading and over mu times the force along n_e (the cone the solver holds). Then the
+reading and over mu times the force along n_e (the solver's cone is on the smaller of the
+force along n_e and the reading's traction integral, so both should be round-off). Then the
 reading's own time per 100,000 samples against the clipped integral's (median of
 ``--repeats``, process time).
 """

@@ -306,6 +306,10 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
         excess = T - mu * Fn
         if (excess > _TOL_N + 1e-9 * np.abs(Fn)).any():
             return f"a tangential force beyond mu N by {excess.max():.3g} N"
+        # and on the label column (a coupled patch's: what its sensor reads)
+        excess = np.hypot(ax, ci)[conv] - mu * N[conv]
+        if (excess > _TOL_N + 1e-9 * np.abs(N[conv])).any():
+            return f"a shear force beyond mu times the label column by {excess.max():.3g} N"
     # released contact carries nothing: with friction, and on the linear coupled arm (its
     # default releases what lifts off); the spring arms' bonded springs hold lifted elements
     releases = mu is not None or (comb.arm in CONTINUUM_ARMS

@@ -166,7 +166,9 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
 
     * normal: P_n = max(0, P_n + rho_n rel_n) (pressing with the gap closed, or released);
     * tangential: P_t = proj_B(mu [P_n + rho_n rel_n]_+)(P_t + rho_t (rel_t - z_t)), the
-      projection on the disc of the friction cone (stuck inside, sliding on its rim);
+      projection on the disc of the friction cone (stuck inside, sliding on its rim); with
+      ``form.cone_normal`` (the coupled model's reading, f = M P) the disc's radius is
+      mu [min(P_n, f) + rho_n rel_n]_+ for a touching patch;
     * rotations: tied (rel_r = z_r) while pressing, free moments of 0 when released;
 
     and the cuff: T^T P = r. rho are each dof's own stiffness 1/C_ii. Returns (u, P, new
@@ -179,6 +181,7 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
     nrm, tan, rot = ar.nrm, ar.tan, ar.rot
     rho, rho_n, rho_t = ar.rho, ar.rho_n, ar.rho_t
     dRel, J0, TT = ar.dRel, ar.J0, ar.TT
+    cone = form.cone_normal
     z0 = state.z.copy()
     rel_prev = relative(form, state.u, state.P).reshape(n, d)
     back = state.cls == RELEASED
@@ -197,7 +200,14 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
         we = w.reshape(n, d)
         yn = Pe[:, 0] - we[:, 0]
         touch = yn > 0
-        Rt = mu * np.maximum(yn, 0.0)
+        rd = None
+        if cone is None:
+            Rt = mu * np.maximum(yn, 0.0)
+        else:   # the cone on min(P_n, f), f = cone_normal P augmented as P_n is
+            fa = cone @ P - we[:, 0]
+            rd = fa < yn
+            Rt = mu * np.maximum(np.where(rd, fa, yn), 0.0)
+            Rt[~touch] = 0.0
         y = Pe[:, 1:3] - we[:, 1:3]
         ny = np.sqrt(y[:, 0] ** 2 + y[:, 1] ** 2)
         slide = ny > Rt
@@ -210,15 +220,19 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
             ph[off, 3:] = Pe[off, 3:]
         with np.errstate(invalid="ignore", divide="ignore"):
             yh = np.where(ny[:, None] > 0, y / ny[:, None], 0.0)
+        if cone is not None:
+            # a touching patch whose cone has closed (it reads nothing yet still touches)
+            # slides freely: P_t = 0, with no direction for the state's solve to scale
+            yh[touch & (Rt == 0.0)] = 0.0
         if slide.any():
             ph[slide, 1:3] = Pe[slide, 1:3] - Rt[slide, None] * yh[slide]
         phi[N:] = TT @ P - r
-        return phi, (touch, slide, yh, ny, Rt)
+        return phi, (touch, slide, yh, ny, Rt, rd)
 
     def jacobian(info, keep=None):
         """J, or only its rows ``keep`` (a mask; the rows of every patch left out must be
         identity rows, see :func:`_reduced_step`)."""
-        touch, slide, yh, ny, Rt = info
+        touch, slide, yh, ny, Rt, rd = info
         if keep is None:
             J, at = J0.copy(), np.arange(N + 6)
         else:
@@ -237,8 +251,14 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
         if sl.size:
             # phi_t = P_t - R_t yh: d = dP_t - yh mu d yn [touch] - R_t/|y| (I - yh yh^T) dy
             dyn = dRel[nrm[sl]] * rho_n[sl, None]
-            dyn[np.arange(sl.size), nrm[sl]] += 1.0
-            dyn *= (mu * touch[sl])[:, None]
+            if cone is None:
+                dyn[np.arange(sl.size), nrm[sl]] += 1.0
+                dyn *= (mu * touch[sl])[:, None]
+            else:
+                on = rd[sl]
+                dyn[on, :N] += cone[sl[on]]
+                dyn[np.flatnonzero(~on), nrm[sl[~on]]] += 1.0
+                dyn *= (mu * (Rt[sl] > 0))[:, None]
             dy = dRel[tan[sl]] * rho_t[sl, :, None]
             dy[np.arange(sl.size)[:, None], np.arange(2)[None, :], tan[sl]] += 1.0
             with np.errstate(invalid="ignore", divide="ignore"):
@@ -277,13 +297,13 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
         linear = not (before == SLIDING).any() and bool(np.all(info[0] | info[1]))
         x, cand, res, step = _line_search(residual, x, dx, res)
         phi, info = cand
-        seen.append((classes(info), info[2]))
+        seen.append((classes(info), info[2], info[5]))
         # without a sliding patch the equations are linear within a state: a full step
         # that ends in the state it was taken in has solved that state's own system
         # (rows scaled by rho, released rows P_e = 0), the system _finish would solve
         exact = linear and step == 1.0 and np.array_equal(before, seen[-1][0])
     out = _finish(form, r, state, classes(info), z0, info[2], its, res <= 1e3 * tol,
-                  x if _REDUCE and exact and res <= tol else None)
+                  x if _REDUCE and exact and res <= tol else None, info[5])
     if out[-1] or res <= 1e3 * tol:
         return out
     return _visited_states(form, r, state, z0, seen[-2 * _STALL:], its)
@@ -330,20 +350,21 @@ def _visited_states(form, r, state, z0, seen, its):
     cone, compression, no penetration, slip direction); the first that passes is the
     answer. ``seen``: (classes, slip directions) per step."""
     tried = []
-    for cls, yh in reversed(seen):
+    for cls, yh, rd in reversed(seen):
         if any(np.array_equal(cls, t) for t in tried):
             continue
         tried.append(cls)
-        out = _finish(form, r, state, cls, z0, yh, its + len(tried), True)
+        out = _finish(form, r, state, cls, z0, yh, its + len(tried), True, on_reading=rd)
         if out[-1]:
             return out
     return state.u, state.P, state, its + len(tried), False
 
 
-def _finish(form, r, state, cls, z0, s_dir, its, close, x=None):
+def _finish(form, r, state, cls, z0, s_dir, its, close, x=None, on_reading=None):
     """Solve the state found exactly (a linear system) and check it; the event's result.
     ``x``: (P, u) already solving that system (Newton's last step), taken instead of a
-    new solve; the count of solves is the same either way."""
+    new solve; the count of solves is the same either way. ``on_reading``: the patches
+    whose cone is on the reading (:func:`~phri_spring.physics.friction.form.solve_state`)."""
     if not close or not (cls != RELEASED).any():
         return state.u, state.P, state, max(its, 1), False
     s = state.s.copy()
@@ -351,7 +372,7 @@ def _finish(form, r, state, cls, z0, s_dir, its, close, x=None):
     s[sl] = s_dir[sl]
     n, d, mu = form.n, form.d, form.mu
     if x is None:
-        sol = solve_state(form, r, cls, z0, s, reduce=_REDUCE)
+        sol = solve_state(form, r, cls, z0, s, reduce=_REDUCE, on_reading=on_reading)
         if sol is None:
             return state.u, state.P, state, max(its, 1), False
         u, P = sol
@@ -363,7 +384,8 @@ def _finish(form, r, state, cls, z0, s_dir, its, close, x=None):
     f_tol, x_tol = (STATE_RTOL * v for v in scales(form, r))
     press = cls != RELEASED
     tn = np.sqrt(Pe[:, 1] ** 2 + Pe[:, 2] ** 2)
-    ok = (np.all(Pe[press, 0] >= -f_tol) and np.all(tn[press] <= mu * Pe[press, 0] + f_tol)
+    fc = form.cone_force(P)
+    ok = (np.all(Pe[press, 0] >= -f_tol) and np.all(tn[press] <= mu * np.maximum(fc[press], 0.0) + f_tol)
           and np.all(rel[~press, 0] <= x_tol)
           and np.all(np.einsum("ek,ek->e", rel[sl, 1:3], s[sl]) >= -x_tol))
     if not ok:

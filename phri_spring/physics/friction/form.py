@@ -44,6 +44,12 @@ class InterfaceForm:
     normal_response : NormalResponse or None
         The spring model's normal law where it is not the linear spring 1/C (a nonlinear
         tissue law, :mod:`phri_spring.physics.friction.normal`); None: linear.
+    cone_normal : ndarray, shape (n, n d), or None
+        With it, the friction cone's normal force is the smaller of P_n and f =
+        cone_normal P [N], the coupled model's traction integral with the skin's local
+        normal (N_out C_t), which never exceeds what its patches report (docs/model.md
+        10.6): a patch's shear then stays within mu times the force along its normal and
+        within mu times the force its sensor reads. None: P_n alone.
     """
 
     n: int
@@ -56,10 +62,19 @@ class InterfaceForm:
     mu: float
     diagonal: bool
     normal_response: object = None
+    cone_normal: np.ndarray | None = None
 
     @property
     def normal(self) -> np.ndarray:
         return np.arange(self.n) * self.d
+
+    def cone_force(self, P) -> np.ndarray:
+        """The normal force of each patch's friction cone, (..., n) from P (..., n d):
+        P_n, or with ``cone_normal`` the smaller of P_n and f = cone_normal P."""
+        P = np.asarray(P)
+        if self.cone_normal is None:
+            return P[..., ::self.d]
+        return np.minimum(P[..., ::self.d], P @ self.cone_normal.T)
 
     @cached_property
     def elements(self) -> "ElementArrays":
@@ -118,8 +133,11 @@ def interface_form(model, like: InterfaceForm | None = None) -> InterfaceForm:
     same geometry, whose map T is taken instead of made again."""
     mu = float(interface_mu(model))
     if hasattr(model, "K_t"):        # the coupled model: already in this form
+        N_out = getattr(model, "N_out", None)
+        cone = None if N_out is None else np.ascontiguousarray(N_out @ model.C_t)
         return InterfaceForm(n=model.n, d=model.dofs, C=model.C, C_skin=model.C_t, T=model.T,
-                             delta=model.delta, W_pre=model.W_pre, mu=mu, diagonal=False)
+                             delta=model.delta, W_pre=model.W_pre, mu=mu, diagonal=False,
+                             cone_normal=cone)
     g = model.geometry
     n = g.n
     if like is not None and like.diagonal and like.n == n:
@@ -176,10 +194,12 @@ def initial_state(form: InterfaceForm) -> PathState:
 
 
 # --------------------------------------------------------------------------- one state
-def solve_state(form: InterfaceForm, r, cls, z, s, reduce: bool = False):
+def solve_state(form: InterfaceForm, r, cls, z, s, reduce: bool = False, on_reading=None):
     """(u, P) of one wrench r (6,) in a fixed state; None if the state holds no cuff.
     ``reduce``: solve without the released patches' rows and columns (their rows say
-    P_e = 0, so their columns multiply zeros): a smaller LU, the same answer."""
+    P_e = 0, so their columns multiply zeros): a smaller LU, the same answer.
+    ``on_reading`` (n,) bool: the sliding patches whose cone is on f = cone_normal P
+    rather than on P_n (see :attr:`InterfaceForm.cone_normal`)."""
     n, d, mu = form.n, form.d, form.mu
     N = n * d
     A = np.zeros((N + 6, N + 6))
@@ -200,6 +220,11 @@ def solve_state(form: InterfaceForm, r, cls, z, s, reduce: bool = False):
         rows = dof[sl, j]
         A[rows, rows] = 1.0
         A[rows, dof[sl, 0]] = -mu * s[sl, j - 1]
+        if on_reading is not None and on_reading[sl].any():   # P_t = mu s f instead
+            on = sl[on_reading[sl]]
+            rows_f = dof[on, j]
+            A[rows_f, dof[on, 0]] = 0.0
+            A[rows_f, :N] -= (mu * s[on, j - 1])[:, None] * form.cone_normal[on]
     A[N:, :N] = form.T.T
     b[N:] = r
     if reduce and free.size:

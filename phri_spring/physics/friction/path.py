@@ -90,6 +90,10 @@ class _StuckMaps:
             self.Q = form.T[ni]
             self.Cs = None
         self.d_rel = form.delta[ni]
+        # the cone's normal force of the stuck patches from their forces P_D (the others
+        # carry nothing)
+        self.cone = (None if form.cone_normal is None else
+                     np.ascontiguousarray(form.cone_normal[np.ix_(cls == STUCK, D)]))
 
     def offsets(self, form, z):
         """For tie offsets z: (c, P0) with u = (r - c) @ Hinv.T, P_D = u @ GT.T + P0."""
@@ -113,7 +117,8 @@ def _block(form, maps, state, r, f_tol, x_tol):
     ok &= np.all(Pn >= -f_tol[:, None], axis=1)
     if mu < np.inf:
         tn = np.sqrt(nd[:, :, 1] ** 2 + nd[:, :, 2] ** 2)
-        ok &= np.all(tn <= mu * np.maximum(Pn, 0.0) + f_tol[:, None], axis=1)
+        fc = Pn if form.cone_normal is None else np.minimum(Pn, PD @ maps.cone.T)
+        ok &= np.all(tn <= mu * np.maximum(fc, 0.0) + f_tol[:, None], axis=1)
     if maps.rel.size:
         pen = u @ maps.Q.T + maps.d_rel
         if maps.Cs is not None:
@@ -186,7 +191,8 @@ def _stuck_transition(form, cache, state, r, f_tol, x_tol):
         PD = u @ maps.GT.T + P0
         nd = PD.reshape(-1, d)
         tn = np.sqrt(nd[:, 1] ** 2 + nd[:, 2] ** 2)
-        if np.any(tn > mu * np.maximum(nd[:, 0], 0.0) + f_tol):
+        fc = nd[:, 0] if form.cone_normal is None else np.minimum(nd[:, 0], maps.cone @ PD)
+        if np.any(tn > mu * np.maximum(fc, 0.0) + f_tol):
             return None
         lift = nd[:, 0] < -f_tol
         back = np.zeros(0, dtype=bool)

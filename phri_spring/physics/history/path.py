@@ -62,7 +62,10 @@ def stiffened_layer(form: InterfaceForm, scale: float, offset=None) -> Interface
     C = C_skin + (form.C - form.C_skin)
     delta = form.delta if offset is None else form.delta + C_skin @ offset
     return InterfaceForm(n=form.n, d=form.d, C=C, C_skin=C_skin, T=form.T, delta=delta,
-                         W_pre=form.W_pre, mu=form.mu, diagonal=False)
+                         W_pre=form.W_pre, mu=form.mu, diagonal=False,
+                         # the reading maps forces to tractions: a uniformly stiffened layer
+                         # moves less under the same forces with the same tractions
+                         cone_normal=form.cone_normal)
 
 
 def _spring_split(model):
