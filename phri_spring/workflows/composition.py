@@ -269,11 +269,13 @@ def run_combination(comb: Combination, folder=None, *, cache_dir=None) -> Outcom
         return Outcome("runs", f"{n - summary.not_converged} of {n} samples converged")
 
 
-def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
+def check_outputs(cfg, comb: Combination, out: Path, log=None) -> Optional[str]:
     """What is wrong with a run's forces file (None: nothing): every sample converged or
     flagged, forces finite where converged, normal forces >= 0, tangential forces within
     mu times the normal force, and the forces on the arm in balance with the load where
-    the file has per-element resultant forces (``A0_force_x_N`` ...)."""
+    the file has per-element resultant forces (``A0_force_x_N`` ...). ``log``: the run's
+    load-cell wrenches (m, 6) (default: the composition log's); mu is the config's
+    ``interface.friction_coefficient``."""
     import pandas as pd
 
     from .common import cuff_wrench, model_from_config
@@ -282,8 +284,9 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
     labels = list(cfg.labels)
     conv = df["converged"].astype(str).str.lower().isin(["true", "1"]).to_numpy()
     N = df[labels].to_numpy(float)
-    if len(df) != LOG_SAMPLES:
-        return f"{len(df)} rows for {LOG_SAMPLES} samples"
+    log = composition_log()[:, 1:] if log is None else np.asarray(log, dtype=float)
+    if len(df) != len(log):
+        return f"{len(df)} rows for {len(log)} samples"
     if not np.isfinite(N[conv]).all():
         return "a converged sample with a force that is not finite"
     if np.isfinite(N[~conv]).any():
@@ -292,7 +295,7 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
         return f"a negative normal force {N[conv].min():.3g} N"
     ax = df[[f"{lab}_shear_axial_N" for lab in labels]].to_numpy(float)
     ci = df[[f"{lab}_shear_circumferential_N" for lab in labels]].to_numpy(float)
-    mu = INTERFACES[comb.interface]
+    mu = cfg.friction_coefficient
     force_cols = [f"{lab}_force_{c}_N" for lab in labels for c in "xyz"]
     if mu is not None:
         T, Fn = np.hypot(ax, ci)[conv], N[conv]
@@ -319,10 +322,14 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
         # sensor reads, docs/model.md 10.6) is out of contact
         lifted = N[conv] <= _TOL_N
         carried = np.hypot(ax, ci)[conv]
-        moment_cols = [c for c in df.columns if "_moment_" in c and c.endswith("_Nm")]
-        if moment_cols:
-            m = np.abs(df[moment_cols].to_numpy(float)[conv]).reshape(conv.sum(), len(labels), -1)
-            carried = carried + m.max(axis=2)
+        # each patch's own moment columns (local axes and cuff frame), by label: the file
+        # groups columns by kind, not by patch
+        per_label = [[c for c in df.columns if c.startswith(f"{lab}_moment_") and c.endswith("_Nm")]
+                     for lab in labels]
+        if all(per_label):
+            m = np.stack([np.abs(df[cols].to_numpy(float)[conv]).max(axis=1)
+                          for cols in per_label], axis=1)
+            carried = carried + m
         if (carried[lifted] > _TOL_N).any():
             return (f"an element at 0 N normal force carries {carried[lifted].max():.3g} "
                     "N (N*m) of tangential force or moment")
@@ -347,7 +354,7 @@ def check_outputs(cfg, comb: Combination, out: Path) -> Optional[str]:
     if conv.any():
         # what the arm carries = the load on the cuff + the strap's wrench (an elastic
         # band's at each sample's tension, docs/model.md section 3.1)
-        W = cuff_wrench(cfg, composition_log()[:, 1:])
+        W = cuff_wrench(cfg, log)
         model = model_from_config(cfg, comb.arm)
         strap = np.broadcast_to(np.asarray(model.W_pre, float), W.shape)
         if "strap_tension_N" in df.columns:
