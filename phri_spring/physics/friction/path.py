@@ -62,13 +62,22 @@ _FIRST_BLOCK = 8
 
 # --------------------------------------------------------------------------- blocks
 class _StuckMaps:
-    """The affine maps of one state with no sliding patch: u and P from the wrench."""
+    """The affine maps of one state with no patch sliding on its cone: u and P from the
+    wrench. ``free`` (n,) bool: touching patches sliding with a closed cone (their
+    cone's normal force has reached 0, :attr:`InterfaceForm.cone_normal`), tied on the
+    normal and rotations with no tangential force: as linear as a stuck patch."""
 
-    def __init__(self, form: InterfaceForm, cls):
+    def __init__(self, form: InterfaceForm, cls, free=None):
         n, d = form.n, form.d
         dof = np.arange(n * d).reshape(n, d)
-        self.D = dof[cls == STUCK].ravel()
+        tied = np.zeros((n, d), dtype=bool)
+        tied[cls == STUCK] = True
+        if free is not None and free.any():
+            tied[free] = True
+            tied[free, 1:3] = False
+        self.D = dof[tied]
         self.rel = np.flatnonzero(cls == RELEASED)
+        self.free = np.flatnonzero(free) if free is not None else np.zeros(0, dtype=np.int64)
         D = self.D
         if form.diagonal:
             g = 1.0 / np.diag(form.C)[D]
@@ -91,9 +100,13 @@ class _StuckMaps:
             self.Cs = None
         self.d_rel = form.delta[ni]
         # the cone's normal force of the stuck patches from their forces P_D (the others
-        # carry nothing)
+        # carry nothing), and the free ones' cone force (which must stay <= 0)
         self.cone = (None if form.cone_normal is None else
                      np.ascontiguousarray(form.cone_normal[np.ix_(cls == STUCK, D)]))
+        self.cone_free = (None if not self.free.size else
+                          np.ascontiguousarray(form.cone_normal[np.ix_(self.free, D)]))
+        # where the stuck patches' forces sit in P_D (free patches have no tangential dofs)
+        self.stuck_at = np.flatnonzero(np.isin(self.D, dof[cls == STUCK].ravel()))
 
     def offsets(self, form, z):
         """For tie offsets z: (c, P0) with u = (r - c) @ Hinv.T, P_D = u @ GT.T + P0."""
@@ -112,13 +125,19 @@ def _block(form, maps, state, r, f_tol, x_tol):
     PD = u @ maps.GT.T + P0
     m = len(r)
     ok = np.ones(m, dtype=bool)
-    nd = PD.reshape(m, -1, d)
+    PS = PD if not maps.free.size else PD[:, maps.stuck_at]
+    nd = PS.reshape(m, -1, d)
     Pn = nd[:, :, 0]
     ok &= np.all(Pn >= -f_tol[:, None], axis=1)
     if mu < np.inf:
         tn = np.sqrt(nd[:, :, 1] ** 2 + nd[:, :, 2] ** 2)
         fc = Pn if form.cone_normal is None else np.minimum(Pn, PD @ maps.cone.T)
         ok &= np.all(tn <= mu * np.maximum(fc, 0.0) + f_tol[:, None], axis=1)
+    if maps.free.size:
+        # free patches: still pressing, their cone still closed
+        Pf = PD[:, np.searchsorted(maps.D, form.normal[maps.free])]
+        ok &= np.all(Pf >= -f_tol[:, None], axis=1)
+        ok &= np.all(PD @ maps.cone_free.T <= f_tol[:, None], axis=1)
     if maps.rel.size:
         pen = u @ maps.Q.T + maps.d_rel
         if maps.Cs is not None:
@@ -131,12 +150,25 @@ def _block(form, maps, state, r, f_tol, x_tol):
     return u[:k], P, k, (u[k] if k < m else None)
 
 
-def _stuck_maps(form, cache, cls):
+def _free_sliders(state):
+    """The sliding patches of ``state`` whose cone has closed (slip direction 0), or None
+    where a patch slides on an open cone (then every sample is an event)."""
+    sl = state.cls == SLIDING
+    if not sl.any():
+        return np.zeros(len(sl), dtype=bool)
+    if np.any(state.s[sl] != 0.0):
+        return None
+    return sl
+
+
+def _stuck_maps(form, cache, cls, free=None):
     key = (cls == STUCK).tobytes()
+    if free is not None and free.any():
+        key += b"free" + free.tobytes()
     maps = cache.get(key)
     if maps is None:
         try:
-            maps = _StuckMaps(form, cls)
+            maps = _StuckMaps(form, cls, free)
         except np.linalg.LinAlgError:
             maps = False
         cache[key] = maps
@@ -264,9 +296,10 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             cls[i] = RELEASED
             i += 1
             continue
-        if not (state.cls == SLIDING).any() and (state.cls == STUCK).any():
+        free = _free_sliders(state)
+        if free is not None and (state.cls == STUCK).any():
             maps = (True if form.normal_response is not None
-                    else _stuck_maps(form, cache, state.cls))
+                    else _stuck_maps(form, cache, state.cls, free))
             if maps:
                 # the state usually holds for long stretches between events: grow the
                 # block while it does, start small again after an event
@@ -283,6 +316,10 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     u[i:i + k], P[i:i + k] = ub, Pb
                     cls[i:i + k] = state.cls
                     state.u, state.P = ub[-1].copy(), Pb[-1].copy()
+                    if free.any():
+                        # a free patch's tie follows the skin: where it is now
+                        at = relative(form, state.u, state.P).reshape(n, d)
+                        state.z[free, 1:3] = at[free, 1:3]
                     r_state = r[i + k - 1]
                     i += k
                     if i >= m:
@@ -301,7 +338,7 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             ui, Pi, new, its, ok = state.u, state.P, state, 1, False
         else:
             hop = None
-            if guess is not None and not form.diagonal:
+            if guess is not None and not form.diagonal and not (state.cls == SLIDING).any():
                 hop = _stuck_transition(form, cache, state, r[i], f_tol[i], x_tol[i])
             if hop is not None:
                 ui, Pi, new, its, ok = hop
