@@ -10,6 +10,7 @@ write through a :class:`LogRun`.
 from __future__ import annotations
 
 import math
+import threading
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -170,11 +171,18 @@ class SummaryAccumulator:
         self.samples = self.not_converged = self.it_max = self.it_sum = 0
         self._peaks = {}  # chunk number -> (peak [kPa], element, pain ratio, time [s])
         self._shares = ChunkedShares()  # what carries the load (docs/model.md section 12.4)
+        self._claimed = set()           # chunks whose load path a thread has taken
+        self._claim_lock = threading.Lock()
         self.strap_max = None           # the band strap's largest tension [N] (band only)
 
     def add_load_path(self, number: int, model, sol) -> None:
         """Add chunk ``number``'s force passed to the skin by kind (normal, tangential,
-        lifted); chunks may come from any thread, in any order."""
+        lifted); chunks may come from any thread, in any order, and a chunk is added once:
+        a call for a chunk another call has taken already returns at once."""
+        with self._claim_lock:
+            if number in self._claimed:
+                return
+            self._claimed.add(number)
         self._shares.add(number, model, sol)
 
     def add_solution(self, sol) -> None:

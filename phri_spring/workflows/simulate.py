@@ -16,6 +16,7 @@ chunked reader, the writer) is a :class:`LogRun` (:func:`open_log_run`,
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 
 import math
@@ -339,6 +340,8 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
         # more than the writer may still be reading: a fresh chunk-sized array would be
         # faulted in anew every chunk
         ring = ForcesRing(writer.in_flight + 1, len(model.labels))
+        # (number, solution) of the chunks the writer may not have finished yet
+        recent = collections.deque(maxlen=writer.in_flight + 1)
         for number, (ch, W) in enumerate(chunks):
             if ch.activation is not None and number == 0:   # the log has muscle activation
                 model = history_model(model, cfg)
@@ -356,6 +359,12 @@ def _stream(run: LogRun, model, chunks, f_base, decimals, progress, total, on_ch
                 on_chunk(ch.time, chunk.solution.forces, extras["peak_pressure_kPa"])
                 job = extras
             writer.write(ch.time, chunk.forces, job)
+            recent.append((number, chunk.solution))
             if progress is not None:
                 progress(acc.samples, total)
+        # the log is solved: while the writer finishes its last chunks, this thread adds
+        # their load paths, the newest first (the writer starts from the oldest; each chunk
+        # is added once, by the first thread to take it, and the sums in chunk order)
+        for number, sol in reversed(recent):
+            acc.add_load_path(number, model, sol)
     return acc.summary(run.output, f_base)
