@@ -134,7 +134,10 @@ def interface_form(model, like: InterfaceForm | None = None) -> InterfaceForm:
     mu = float(interface_mu(model))
     if hasattr(model, "K_t"):        # the coupled model: already in this form
         N_out = getattr(model, "N_out", None)
-        cone = None if N_out is None else np.ascontiguousarray(N_out @ model.C_t)
+        # a friction coefficient is a law a user checks against the forces written; the
+        # default's lift-off cone (mu_bond) only lets a patch go smoothly, on P_n
+        cone = (None if N_out is None or model.friction_coefficient is None
+                else np.ascontiguousarray(N_out @ model.C_t))
         return InterfaceForm(n=model.n, d=model.dofs, C=model.C, C_skin=model.C_t, T=model.T,
                              delta=model.delta, W_pre=model.W_pre, mu=mu, diagonal=False,
                              cone_normal=cone)

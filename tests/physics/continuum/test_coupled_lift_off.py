@@ -89,9 +89,10 @@ def _check(model, W, sol, mu):
     if sol.moments is not None:
         assert np.all(sol.moments[ok][quiet] == 0.0)
     assert np.all(label[~off] > 0.0)
-    # the cone holds on what the sensor reads too (section 10.2: the cone's normal force is
-    # the smaller of the force along n_e and the reading's traction integral)
-    assert np.all(tn <= mu * label + 1e-9 * scale)
+    if mu != LIFT_OFF_MU:
+        # with friction the cone holds on what the sensor reads too (section 10.2: its
+        # normal force is the smaller of the force along n_e and the reading's integral)
+        assert np.all(tn <= mu * label + 1e-9 * scale)
     return ok
 
 
