@@ -348,7 +348,8 @@ def _visited_states(form, r, state, z0, seen, its):
     and which way round-off tips it differs between CPUs and BLAS builds. Each state it
     visited, latest first, is solved exactly and checked as any answer is (equilibrium,
     cone, compression, no penetration, slip direction); the first that passes is the
-    answer. ``seen``: (classes, slip directions) per step."""
+    answer. ``seen``: (classes, slip directions, patches whose cone is on the reading)
+    per step."""
     tried = []
     for cls, yh, rd in reversed(seen):
         if any(np.array_equal(cls, t) for t in tried):

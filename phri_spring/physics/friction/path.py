@@ -11,6 +11,10 @@ element (spring model) or patch (coupled model) is in one of three states:
 * **sliding** -- it presses and its tangential force is on the cone,
   P_t = mu P_n s with s the unit direction of its slip increment.
 
+For a coupled patch with ``friction_coefficient`` set, P_n in the cone is the smaller of
+P_n and its reading's traction integral (:attr:`InterfaceForm.cone_normal`); a patch
+whose cone has closed that way slides freely (P_t = 0, s = 0).
+
 Both arm models are written in one compliance form (the coupled model's, docs/model.md
 section 10.3): patch forces P (n d, local axes: normal, axial, circumferential[, three
 rotations]), total compliance C, the rigid map T (n d, 6) and the preload offset delta.
