@@ -219,15 +219,14 @@ def solve_state(form: InterfaceForm, r, cls, z, s, reduce: bool = False, on_read
     free = dof[cls == RELEASED].ravel()
     A[free, free] = 1.0
     sl = np.flatnonzero(cls == SLIDING)
+    on = np.zeros(sl.size, dtype=bool) if on_reading is None else on_reading[sl]
     for j in (1, 2):
         rows = dof[sl, j]
         A[rows, rows] = 1.0
-        A[rows, dof[sl, 0]] = -mu * s[sl, j - 1]
-        if on_reading is not None and on_reading[sl].any():   # P_t = mu s f instead
-            on = sl[on_reading[sl]]
-            rows_f = dof[on, j]
-            A[rows_f, dof[on, 0]] = 0.0
-            A[rows_f, :N] -= (mu * s[on, j - 1])[:, None] * form.cone_normal[on]
+        # P_t = mu s P_n, or mu s f where the patch's cone is on the reading
+        A[rows[~on], dof[sl[~on], 0]] = -mu * s[sl[~on], j - 1]
+        if on.any():
+            A[rows[on], :N] -= (mu * s[sl[on], j - 1])[:, None] * form.cone_normal[sl[on]]
     A[N:, :N] = form.T.T
     b[N:] = r
     if reduce and free.size:

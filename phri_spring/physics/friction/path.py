@@ -109,8 +109,15 @@ class _StuckMaps:
                      np.ascontiguousarray(form.cone_normal[np.ix_(cls == STUCK, D)]))
         self.cone_free = (None if not self.free.size else
                           np.ascontiguousarray(form.cone_normal[np.ix_(self.free, D)]))
-        # where the stuck patches' forces sit in P_D (free patches have no tangential dofs)
+        # where the stuck patches' forces, and the free ones' normal forces, sit in P_D
+        # (free patches have no tangential dofs)
         self.stuck_at = np.flatnonzero(np.isin(self.D, dof[cls == STUCK].ravel()))
+        self.free_normal_at = np.searchsorted(self.D, form.normal[self.free])
+
+    def cone_force(self, PD, Pn):
+        """The stuck patches' cone normal force from the tied forces P_D ((m, k) or (k,))
+        and their normal forces Pn: Pn, or the smaller of Pn and the reading's integral."""
+        return Pn if self.cone is None else np.minimum(Pn, PD @ self.cone.T)
 
     def offsets(self, form, z):
         """For tie offsets z: (c, P0) with u = (r - c) @ Hinv.T, P_D = u @ GT.T + P0."""
@@ -135,12 +142,11 @@ def _block(form, maps, state, r, f_tol, x_tol):
     ok &= np.all(Pn >= -f_tol[:, None], axis=1)
     if mu < np.inf:
         tn = np.sqrt(nd[:, :, 1] ** 2 + nd[:, :, 2] ** 2)
-        fc = Pn if form.cone_normal is None else np.minimum(Pn, PD @ maps.cone.T)
+        fc = maps.cone_force(PD, Pn)
         ok &= np.all(tn <= mu * np.maximum(fc, 0.0) + f_tol[:, None], axis=1)
     if maps.free.size:
         # free patches: still pressing, their cone still closed
-        Pf = PD[:, np.searchsorted(maps.D, form.normal[maps.free])]
-        ok &= np.all(Pf >= -f_tol[:, None], axis=1)
+        ok &= np.all(PD[:, maps.free_normal_at] >= -f_tol[:, None], axis=1)
         ok &= np.all(PD @ maps.cone_free.T <= f_tol[:, None], axis=1)
     if maps.rel.size:
         pen = u @ maps.Q.T + maps.d_rel
@@ -227,8 +233,7 @@ def _stuck_transition(form, cache, state, r, f_tol, x_tol):
         PD = u @ maps.GT.T + P0
         nd = PD.reshape(-1, d)
         tn = np.sqrt(nd[:, 1] ** 2 + nd[:, 2] ** 2)
-        fc = nd[:, 0] if form.cone_normal is None else np.minimum(nd[:, 0], maps.cone @ PD)
-        if np.any(tn > mu * np.maximum(fc, 0.0) + f_tol):
+        if np.any(tn > mu * np.maximum(maps.cone_force(PD, nd[:, 0]), 0.0) + f_tol):
             return None
         lift = nd[:, 0] < -f_tol
         back = np.zeros(0, dtype=bool)
