@@ -47,10 +47,11 @@ the next sample starts from the last consistent state.
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 from scipy.optimize import nnls
 
 from .events import solve_event_coupled, solve_event_elements
+from .active import active_step
+from .maps import stuck_maps
 from .normal import block_nonlinear, frictionless_unheld
 # the shared pieces, importable from here too
 from .form import (RELEASED, SLIDING, STATE_RTOL, STUCK, InterfaceForm,  # noqa: F401
@@ -62,68 +63,6 @@ __all__ = ["InterfaceForm", "PathState", "interface_form", "initial_state", "sol
 #: samples solved together while the state holds
 _BLOCK = 4096
 _FIRST_BLOCK = 8
-
-
-# --------------------------------------------------------------------------- blocks
-class _StuckMaps:
-    """The affine maps of one state with no patch sliding on its cone: u and P from the
-    wrench. ``free`` (n,) bool: touching patches sliding with a closed cone (their
-    cone's normal force has reached 0, :attr:`InterfaceForm.cone_normal`), tied on the
-    normal and rotations with no tangential force: as linear as a stuck patch."""
-
-    def __init__(self, form: InterfaceForm, cls, free=None):
-        n, d = form.n, form.d
-        dof = np.arange(n * d).reshape(n, d)
-        tied = np.zeros((n, d), dtype=bool)
-        tied[cls == STUCK] = True
-        if free is not None and free.any():
-            tied[free] = True
-            tied[free, 1:3] = False
-        self.D = dof[tied]
-        self.rel = np.flatnonzero(cls == RELEASED)
-        self.free = np.flatnonzero(free) if free is not None else np.zeros(0, dtype=np.int64)
-        D = self.D
-        if form.diagonal:
-            g = 1.0 / np.diag(form.C)[D]
-            self._G = lambda x: g[:, None] * x if x.ndim == 2 else g * x
-        else:
-            cf = cho_factor(form.C[np.ix_(D, D)])
-            self._G = lambda x: cho_solve(cf, x)
-        TD = form.T[D]
-        self.GT = self._G(TD)
-        H = TD.T @ self.GT
-        self.Hinv = np.linalg.inv(0.5 * (H + H.T))
-        self.TD = TD
-        # penetration of the released patches: affine in u and in P_D
-        ni = form.normal[self.rel]
-        if form.C_skin is not None and self.rel.size:
-            self.Q = form.T[ni] - form.C_skin[np.ix_(ni, D)] @ self.GT
-            self.Cs = form.C_skin[np.ix_(ni, D)]
-        else:
-            self.Q = form.T[ni]
-            self.Cs = None
-        self.d_rel = form.delta[ni]
-        # the cone's normal force of the stuck patches from their forces P_D (the others
-        # carry nothing), and the free ones' cone force (which must stay <= 0)
-        self.cone = (None if form.cone_normal is None else
-                     np.ascontiguousarray(form.cone_normal[np.ix_(cls == STUCK, D)]))
-        self.cone_free = (None if not self.free.size else
-                          np.ascontiguousarray(form.cone_normal[np.ix_(self.free, D)]))
-        # where the stuck patches' forces, and the free ones' normal forces, sit in P_D
-        # (free patches have no tangential dofs)
-        self.stuck_at = np.flatnonzero(np.isin(self.D, dof[cls == STUCK].ravel()))
-        self.free_normal_at = np.searchsorted(self.D, form.normal[self.free])
-
-    def cone_force(self, PD, Pn):
-        """The stuck patches' cone normal force from the tied forces P_D ((m, k) or (k,))
-        and their normal forces Pn: Pn, or the smaller of Pn and the reading's integral."""
-        return Pn if self.cone is None else np.minimum(Pn, PD @ self.cone.T)
-
-    def offsets(self, form, z):
-        """For tie offsets z: (c, P0) with u = (r - c) @ Hinv.T, P_D = u @ GT.T + P0."""
-        D = self.D
-        P0 = self._G(form.delta[D] - z.ravel()[D])
-        return self.TD.T @ P0, P0
 
 
 def _block(form, maps, state, r, f_tol, x_tol):
@@ -147,7 +86,9 @@ def _block(form, maps, state, r, f_tol, x_tol):
     if maps.free.size:
         # free patches: still pressing, their cone still closed
         ok &= np.all(PD[:, maps.free_normal_at] >= -f_tol[:, None], axis=1)
-        ok &= np.all(PD @ maps.cone_free.T <= f_tol[:, None], axis=1)
+        fc = (PD[:, maps.free_normal_at] if maps.cone_free is None
+              else np.minimum(PD[:, maps.free_normal_at], PD @ maps.cone_free.T))
+        ok &= np.all(fc <= f_tol[:, None], axis=1)
     if maps.rel.size:
         pen = u @ maps.Q.T + maps.d_rel
         if maps.Cs is not None:
@@ -169,20 +110,6 @@ def _free_sliders(state):
     if np.any(state.s[sl] != 0.0):
         return None
     return sl
-
-
-def _stuck_maps(form, cache, cls, free=None):
-    key = (cls == STUCK).tobytes()
-    if free is not None and free.any():
-        key += b"free" + free.tobytes()
-    maps = cache.get(key)
-    if maps is None:
-        try:
-            maps = _StuckMaps(form, cls, free)
-        except np.linalg.LinAlgError:
-            maps = False
-        cache[key] = maps
-    return maps
 
 
 def _frictionless_reachable(form, cache, r, f_tol) -> bool:
@@ -225,7 +152,7 @@ def _stuck_transition(form, cache, state, r, f_tol, x_tol):
         land = relative(form, state.u, state.P).reshape(n, d)
         z[was_off, 1:] = land[was_off, 1:]
     for hop in range(1, _HOPS + 1):
-        maps = _stuck_maps(form, cache, cls)
+        maps = stuck_maps(form, cache, cls)
         if not maps:
             return None
         c, P0 = maps.offsets(form, z)
@@ -252,6 +179,11 @@ def _stuck_transition(form, cache, state, r, f_tol, x_tol):
         if not (cls == STUCK).any():
             return None
     return None
+
+
+#: the coupled model's events by active sets first (:mod:`.active`); False: the
+#: semismooth Newton alone (the reference the tests compare against)
+_ACTIVE_SETS = True
 
 
 def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: dict | None = None,
@@ -308,7 +240,7 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
         free = _free_sliders(state)
         if free is not None and (state.cls == STUCK).any():
             maps = (True if form.normal_response is not None
-                    else _stuck_maps(form, cache, state.cls, free))
+                    else stuck_maps(form, cache, state.cls, free))
             if maps:
                 # the state usually holds for long stretches between events: grow the
                 # block while it does, start small again after an event
@@ -347,7 +279,12 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             ui, Pi, new, its, ok = state.u, state.P, state, 1, False
         else:
             hop = None
-            if guess is not None and not form.diagonal and not (state.cls == SLIDING).any():
+            if form.diagonal:
+                pass
+            elif _ACTIVE_SETS and form.cone_normal is not None and form.mu > 0:
+                # friction set by the user: slips, sticks and lifts by active sets
+                hop = active_step(form, cache, state, r[i], f_tol[i], x_tol[i])
+            elif guess is not None and not (state.cls == SLIDING).any():
                 hop = _stuck_transition(form, cache, state, r[i], f_tol[i], x_tol[i])
             if hop is not None:
                 ui, Pi, new, its, ok = hop

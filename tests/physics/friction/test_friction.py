@@ -266,6 +266,7 @@ def test_a_stalled_newton_takes_a_state_it_visited_once_checked(monkeypatch):
     Forced here by calling every step that does not halve the residual a stall: the
     states it rescues are the full iteration's answers, and it rescues some."""
     model, W = _coupled_push_cycle()
+    monkeypatch.setattr(friction, "_ACTIVE_SETS", False)   # the semismooth Newton's own
     ref = solve(model, W)
     rescued = []
     inner = friction_events._visited_states
@@ -303,6 +304,7 @@ def test_a_sample_the_event_solver_cannot_reach_is_reached_in_smaller_increments
             return state.u, state.P, state, 1, False
         return inner(form, r, state, u0)
 
+    monkeypatch.setattr(friction, "_ACTIVE_SETS", False)   # the semismooth Newton's own
     monkeypatch.setattr(friction, "solve_event_coupled", small_steps_only)
     sol = solve(model, W)
     assert len(refused) > 50
