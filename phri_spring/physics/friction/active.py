@@ -91,79 +91,160 @@ class SlidingMaps:
         self.I = np.eye(2 * K)
         self.rho = 1.0 / np.diag(form.C)[Sd]
         self.Dy3 = (self.I + self.rho[:, None] * self.Mg).reshape(K, 2, 2 * K)
+        # the same as Python lists, for the scalar iteration of one sliding patch
+        self.M_list = self.M.tolist()
+        self.rho_list = self.rho.tolist()
+        self.Dy_list = self.Dy3.reshape(2 * K, 2 * K).tolist()
         self.I2 = np.eye(2)[None]
 
 
-def _maps(form, cache, cls, opn, free):
-    """The maps of the state (cls with ``opn`` and ``free`` patches sliding): (StuckMaps,
-    SlidingMaps or None), or (False, None) where the state holds no cuff."""
-    maps = stuck_maps(form, cache, cls, opn | free)
-    if not maps or not opn.any():
-        return maps, None
-    key = ("open", (cls == STUCK).tobytes(), opn.tobytes(), free.tobytes())
-    sm = cache.get(key)
-    if sm is None:
-        sm = SlidingMaps(form, maps, np.flatnonzero(opn))
+#: a patch's code in a state tried: released, stuck, sliding on an open cone, sliding on a
+#: closed one (free); the first two are the path's RELEASED and STUCK
+_OPEN, _FREE = 2, 3
+
+
+def _maps(form, cache, code):
+    """The maps of the state ``code`` (n,) int8: (StuckMaps or False where the state holds
+    no cuff, SlidingMaps or None, and the indices of the touching, stuck and free
+    patches)."""
+    key = b"active" + code.tobytes()      # apart from stuck_maps' keys
+    hit = cache.get(key)
+    if hit is None:
+        cls = np.minimum(code, SLIDING)
+        opn = code == _OPEN
+        maps = stuck_maps(form, cache, cls, code >= _OPEN)
+        sm = None if not maps or not opn.any() else SlidingMaps(form, maps, np.flatnonzero(opn))
+        # the patches each check is on: touching, stuck, sliding freely
+        hit = (maps, sm, np.flatnonzero(code != RELEASED), np.flatnonzero(code == STUCK),
+               np.flatnonzero(code == _FREE))
         if len(cache) >= MAPS_KEPT:
             del cache[next(iter(cache))]
-        cache[key] = sm
-    return maps, sm
+        cache[key] = hit
+    return hit
 
 
-def _solve(form, cache, cls, opn, free, z, r, F, tol):
-    """u, P (n d,), the open patches' slip increments g (K, 2) and the Newton steps taken,
-    of the state; None where the state holds no cuff or its sliding patches find no
-    Coulomb force (a cone closing, a slip that vanishes, no convergence: a different
-    state)."""
+def _newton_one(sm, base, F, mu, tol):
+    """The Newton iteration of :func:`_solve` for one sliding patch (K = 1), in scalars:
+    (F, g, yh, steps), a boolean mask where its cone closes, or None."""
+    F0, F1 = float(F[0]), float(F[1])
+    b = base.tolist()
+    M = sm.M_list
+    rho0, rho1 = sm.rho_list
+    on_reading = sm.CN is not None
+    gi = len(b) - 2
+    steps, last = 0, np.inf
+    while True:
+        v = [bi + Mi[0] * F0 + Mi[1] * F1 for bi, Mi in zip(b, M)]
+        Pn = v[0]
+        fc, dfc = Pn, M[0]
+        if on_reading and v[1] < Pn:
+            fc, dfc = v[1], M[1]
+        if fc <= 0.0:
+            return np.array([True])
+        g0, g1 = v[gi], v[gi + 1]
+        y0, y1 = F0 + rho0 * g0, F1 + rho1 * g1
+        ny = (y0 * y0 + y1 * y1) ** 0.5
+        if ny <= 0.0:
+            return None
+        h0, h1 = y0 / ny, y1 / ny
+        R = mu * fc
+        p0, p1 = F0 - R * h0, F1 - R * h1
+        res = max(abs(p0), abs(p1))
+        if res <= tol:
+            return np.array([F0, F1]), np.array([[g0, g1]]), np.array([[h0, h1]]), steps
+        if steps == _NEWTON or res > last or not res < np.inf:
+            return None
+        last = res
+        steps += 1
+        # J = I - d(R yh)/dF, d(R yh)/dF = yh mu dfc + R/|y| (I - yh yh^T) dy/dF,
+        # dy/dF = I + rho dg/dF
+        Dy = sm.Dy_list
+        k = R / ny
+        q00, q01, q11 = 1.0 - h0 * h0, -h0 * h1, 1.0 - h1 * h1
+        a = [[(1.0 if i == j else 0.0) - mu * (h0, h1)[i] * dfc[j]
+              - k * ((q00, q01)[i] * Dy[0][j] + (q01, q11)[i] * Dy[1][j])
+              for j in (0, 1)] for i in (0, 1)]
+        det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
+        if det == 0.0:
+            return None
+        F0 -= (a[1][1] * p0 - a[0][1] * p1) / det
+        F1 -= (a[0][0] * p1 - a[1][0] * p0) / det
+
+
+def _solve(form, cache, code, z, r, F, tol):
+    """The state ``code`` at wrench r with ties z: (u, P (n d,), (g, yh) of the open
+    patches or None, Newton steps, the state's maps from :func:`_maps`); None where the state holds no cuff
+    or its sliding patches find no Coulomb force (a slip that vanishes, no convergence: a
+    different state); a boolean mask over the open patches where their cones close on
+    the way."""
     n, d, mu = form.n, form.d, form.mu
-    maps, sm = _maps(form, cache, cls, opn, free)
+    hit = _maps(form, cache, code)
+    maps, sm = hit[0], hit[1]
     if not maps:
         return None
     D = maps.D
-    P0 = maps.G @ (form.delta[D] - z.ravel()[D])
+    P0 = maps.G @ (maps.delta_D - z.reshape(-1)[D])
     u = maps.Hinv @ (r - maps.TD.T @ P0)
-    PD = maps.GT @ u + P0
+    PD = maps.GT @ u
+    PD += P0
     P = np.zeros(n * d)
     if sm is None:
         P[D] = PD
-        return u, P, None, 0
+        return u, P, None, 0, hit
     K = sm.opn.size
     # [P_n; f; g] of the open patches at F = 0, then + M F
     base = sm.B_u @ u + sm.B_P @ PD + sm.B_c
-    base[sm.g_rows] -= z[sm.opn, 1:3].ravel()
+    base[-2 * K:] -= z[sm.opn, 1:3].reshape(-1)
+    out = _newton_one(sm, base, F, mu, tol) if K == 1 else _newton(sm, base, F, mu, tol)
+    if out is None or not isinstance(out, tuple):
+        return out
+    F, g, yh, steps = out
+    u += sm.Uf @ F
+    P[D] = PD + sm.Pf @ F
+    P[sm.Sd] = F
+    return u, P, (g, yh), steps, hit
+
+
+def _newton(sm, base, F, mu, tol):
+    """Newton's method on F = mu R y/|y| for K sliding patches (docstring of
+    :func:`_solve`): (F, g (K, 2), yh (K, 2), steps), a mask of closing cones, or None."""
+    K = sm.opn.size
     steps, last = 0, np.inf
     while True:
-        v = base + sm.M @ F
+        v = sm.M @ F
+        v += base
         Pn = v[:K]
         if sm.CN is None:
             fc, dfc = Pn, sm.Mn
         else:
             fr = v[K:2 * K]
             on = fr < Pn
-            if on.any():
+            if on.all():        # the usual case: the reading is the smaller
+                fc, dfc = fr, sm.Mf
+            elif on.any():
                 fc = np.where(on, fr, Pn)
                 dfc = np.where(on[:, None], sm.Mf, sm.Mn)
             else:
                 fc, dfc = Pn, sm.Mn
         if fc.min() <= 0.0:
             return fc <= 0.0            # these cones close: the patches slide freely
-        g = v[sm.g_rows]
+        g = v[-2 * K:]
         # Alart-Curnier's augmented force y = F + rho g (rho: each dof's stiffness): at
         # the answer F = R y/|y| with y along g; unlike g's own direction, y's stays well
         # defined as the slip of a sample goes to 0
-        y = (F + sm.rho * g).reshape(K, 2)
-        ny = np.sqrt(y[:, 0] ** 2 + y[:, 1] ** 2)
+        y = (sm.rho * g + F).reshape(K, 2)
+        ny = np.hypot(y[:, 0], y[:, 1])
         if ny.min() <= 0.0:
             return None
         yh = y / ny[:, None]
         R = mu * fc
-        phi = F - (R[:, None] * yh).ravel()
-        res = np.abs(phi).max()
+        phi = F - (R[:, None] * yh).reshape(-1)
+        res = max(phi.max(), -phi.min())
         if res <= tol:
-            break
+            return F, g.reshape(K, 2), yh, steps
         # Newton converges quadratically where the state holds: a residual that does not
         # fall is a state without a Coulomb solution
-        if steps == _NEWTON or res > last:
+        if steps == _NEWTON or res > last or not res < np.inf:
             return None
         last = res
         steps += 1
@@ -175,103 +256,112 @@ def _solve(form, cache, cls, opn, free, z, r, F, tol):
         if dF is None:
             return None
         F = F - dF
-    u = u + sm.Uf @ F
-    P[D] = PD + sm.Pf @ F
-    P[sm.Sd] = F
-    return u, P, (g.reshape(K, 2), yh), steps
 
 
-def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
+def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol, first=None):
     """One sample of the coupled model from ``state`` by active sets (module docstring):
     (u, P, new state, solves, True), or None where no consistent state is found (then the
     semismooth Newton takes the sample). ``f_tol``, ``x_tol``: the state checks'
-    tolerances [N, m]."""
+    tolerances [N, m]. ``first``: (u, P) of the path's own state at r where it is known
+    (a block of that state ended at this sample) and no patch slides: the predictor."""
     n, d, mu = form.n, form.d, form.mu
+    cone = form.cone_normal
     z = state.z.copy()
-    back = state.cls == RELEASED
-    if back.any():
-        # a released patch comes back where its skin is (as in the semismooth Newton)
-        land = relative(form, state.u, state.P).reshape(n, d)
-        z[back, 1:] = land[back, 1:]
-    sliding = state.cls == SLIDING
-    was_open = sliding & np.any(state.s != 0.0, axis=1)
-    tol = 1e-12 * (np.abs(r).max() + np.abs(form.W_pre).max() + 1e-300)
+    tol = 1e-12 * (max(r.max(), -r.min()) + form.pre_scale)
     # the elastic predictor: every touching patch tied where it is (a sliding patch's tie
-    # is where its last slip ended, a free one's where its skin was)
-    cls = state.cls.copy()
-    cls[sliding] = STUCK
-    opn = np.zeros(n, dtype=bool)
-    free = np.zeros(n, dtype=bool)
+    # is where its last slip ended, a free one's where its skin was), corrected from there
+    code = (state.cls != RELEASED).astype(np.int8)
     F = np.zeros(0)
     solves = 0
     for _ in range(_HOPS):
-        sol = _solve(form, cache, cls, opn, free, z, r, F, tol)
+        if first is not None:
+            sol = first + (None, 0, _maps(form, cache, code))
+            first = None
+        else:
+            sol = _solve(form, cache, code, z, r, F, tol)
+        solves += 1
         if sol is None:
             return None
         if not isinstance(sol, tuple):
             # sliding patches whose cone closes on the way: they slide freely
-            solves += 1
-            closing = np.flatnonzero(opn)[sol]
-            opn[closing] = False
-            free[closing] = True
-            F = F.reshape(-1, 2)[~sol].ravel()
+            code[np.flatnonzero(code == _OPEN)[sol]] = _FREE
+            F = F.reshape(-1, 2)[~sol].reshape(-1)
             continue
-        solves += 1 + sol[3]
-        u, P, slip, _ = sol
-        Pe = P.reshape(n, d)
-        Pn = Pe[:, 0]
-        tn = np.sqrt(Pe[:, 1] ** 2 + Pe[:, 2] ** 2)
-        fc = form.cone_force(P)
-        touch = cls != RELEASED
-        lift = touch & (Pn < -f_tol)
-        over = (cls == STUCK) & ~lift & (tn > mu * np.maximum(fc, 0.0) + f_tol)
-        to_open = over & (fc > 0.0)
-        to_free = over & ~to_open
-        closed = opn & ~lift & (fc <= 0.0)
-        reopened = free & ~lift & (fc > f_tol)
-        rel = relative(form, u, P).reshape(n, d)
-        pressed = ~touch & (rel[:, 0] > x_tol)
-        # a sliding patch whose slip would run against its force sticks
-        sticks = np.zeros(n, dtype=bool)
-        if slip is not None:
+        u, P, slip, steps, (maps, sm, touch, stuck, fre) = sol
+        solves += steps
+        Pn = P[0::d]
+        tn = np.hypot(P[1::d], P[2::d])
+        fc = Pn if cone is None else np.minimum(Pn, cone @ P)
+        # the usual outcome first, in few operations: every check passes
+        ok = Pn[touch].min() >= -f_tol
+        if ok and stuck.size:
+            ok = (tn[stuck] - mu * np.maximum(fc[stuck], 0.0)).max() <= f_tol
+        if ok and sm is not None:
             g, yh = slip
-            sticks[opn] = np.einsum("ek,ek->e", g, yh) < -x_tol
-            sticks &= ~lift
-        if not (lift.any() or over.any() or closed.any() or reopened.any()
-                or pressed.any() or sticks.any()):
-            s = state.s.copy()
-            if opn.any():
-                z[opn, 1:3] = rel[opn, 1:3]
-                s[opn] = yh
-            if free.any():
+            ok = (fc[sm.opn].min() > 0.0
+                  and (g[:, 0] * yh[:, 0] + g[:, 1] * yh[:, 1]).min() >= -x_tol)
+        if ok and fre.size:
+            ok = fc[fre].max() <= f_tol
+        if ok and maps.rel.size:
+            ok = (maps.T_rel @ u + maps.d_rel - maps.C_rel @ P).max() <= x_tol
+        if ok:
+            s = state.s
+            if maps.free.size:
+                rel = relative(form, u, P).reshape(n, d)
+                s = s.copy()
+                if sm is not None:
+                    z[sm.opn, 1:3] = rel[sm.opn, 1:3]
+                    s[sm.opn] = yh
                 # a free patch's tie follows the skin: where it is now
-                z[free, 1:3] = rel[free, 1:3]
-                s[free] = 0.0
-            new = PathState(cls=cls, z=z, s=s, u=u, P=P)
-            return u, P, new, max(solves, 1), True
+                z[fre, 1:3] = rel[fre, 1:3]
+                s[fre] = 0.0
+            cls = np.minimum(code, SLIDING)
+            return u, P, PathState(cls=cls, z=z, s=s, u=u, P=P), solves, True
         # the next state: each patch corrected on its own, as a return mapping does
-        cls[lift] = RELEASED
-        opn &= ~lift
-        free &= ~lift
-        cls[over] = SLIDING
-        opn |= to_open
-        free |= to_free
-        opn &= ~closed
-        free |= closed
-        free &= ~reopened
-        cls[reopened] = STUCK
-        z[reopened, 1:3] = rel[reopened, 1:3]     # it sticks where it is
-        cls[pressed] = STUCK
-        opn &= ~sticks
-        cls[sticks] = STUCK
-        if not (cls != RELEASED).any():
+        new = code.copy()
+        lift = Pn < -f_tol
+        lift &= code != RELEASED
+        new[lift] = RELEASED
+        over = tn > mu * np.maximum(fc, 0.0) + f_tol
+        over &= code == STUCK
+        over &= ~lift
+        if over.any():
+            # a stuck patch beyond its cone slides: on its cone, or freely if that closed
+            new[over] = np.where(fc[over] > 0.0, _OPEN, _FREE)
+        if sm is not None:
+            o = sm.opn
+            g, yh = slip
+            # a sliding patch whose cone closed slides freely; one whose slip would run
+            # against its force sticks
+            new[o[(fc[o] <= 0.0) & ~lift[o]]] = _FREE
+            new[o[(g[:, 0] * yh[:, 0] + g[:, 1] * yh[:, 1] < -x_tol) & ~lift[o]]] = STUCK
+        reopened = fre[(fc[fre] > f_tol) & ~lift[fre]]
+        if reopened.size:
+            # it sticks where it is now
+            new[reopened] = STUCK
+            rel = relative(form, u, P).reshape(n, d)
+            z[reopened, 1:3] = rel[reopened, 1:3]
+        if maps.rel.size:
+            # a released patch whose skin the others press into its cuff comes back,
+            # landing where its skin was at the last sample (as in the semismooth Newton)
+            pen = maps.T_rel @ u + maps.d_rel - maps.C_rel @ P
+            back = maps.rel[pen > x_tol]
+            if back.size:
+                new[back] = STUCK
+                land = relative(form, state.u, state.P).reshape(n, d)
+                z[back, 1:] = land[back, 1:]
+        if not new.any() or np.array_equal(new, code):
             return None
         # a newly sliding patch starts on its cone along the force it had stuck, or, if
         # it slid at the last sample, with the force it had then
+        Pe = P.reshape(n, d)
         Fe = Pe[:, 1:3].copy()
+        to_open = over & (new == _OPEN)
         if to_open.any():
             Fe[to_open] *= (mu * fc[to_open] / tn[to_open])[:, None]
-            cont = to_open & was_open
+            cont = to_open & (state.cls == SLIDING)
+            cont &= np.any(state.s != 0.0, axis=1)
             Fe[cont] = state.P.reshape(n, d)[cont, 1:3]
-        F = Fe[opn].ravel()
+        code = new
+        F = Fe[code == _OPEN].reshape(-1)
     return None

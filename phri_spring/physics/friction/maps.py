@@ -39,6 +39,7 @@ class StuckMaps:
             tied[free] = True
             tied[free, 1:3] = False
         self.D = dof[tied]
+        self._delta = form.delta
         self.rel = np.flatnonzero(cls == RELEASED)
         self.free = np.flatnonzero(free) if free is not None else np.zeros(0, dtype=np.int64)
         D = self.D
@@ -62,6 +63,9 @@ class StuckMaps:
             self.Q = form.T[ni]
             self.Cs = None
         self.d_rel = form.delta[ni]
+        # the same on the full P (with forces on dofs outside D, a sliding patch's)
+        self.T_rel = form.T[ni]
+        self.C_rel = np.ascontiguousarray(form.C[ni])
         # the cone's normal force of the stuck patches from their forces P_D (the others
         # carry nothing), and the free ones' cone force (which must stay <= 0)
         self.cone = (None if form.cone_normal is None else
@@ -83,7 +87,12 @@ class StuckMaps:
         """C_DD^-1 as a matrix: the active-set events (:mod:`~phri_spring.physics.friction.active`)
         apply it once per state tried, where a product is much cheaper than a
         triangular solve's call."""
-        return self._G(np.eye(self.D.size))
+        return np.ascontiguousarray(self._G(np.eye(self.D.size)))
+
+    @cached_property
+    def delta_D(self):
+        """The preload offsets of the tied dofs."""
+        return self._delta[self.D]
 
     def solve_tied(self, x):
         """C_DD^-1 x for x (|D|,) or (|D|, k): the tied compliance's inverse applied."""
@@ -92,7 +101,11 @@ class StuckMaps:
     def offsets(self, form, z):
         """For tie offsets z: (c, P0) with u = (r - c) @ Hinv.T, P_D = u @ GT.T + P0."""
         D = self.D
-        P0 = self._G(form.delta[D] - z.ravel()[D])
+        x = form.delta[D] - z.ravel()[D]
+        # with friction set, blocks are short (a few samples between events): the product
+        # with the inverse, made once per state, rather than a triangular solve per block
+        # (the default interface keeps the solve, and its outputs as they were)
+        P0 = self.G @ x if form.cone_normal is not None else self._G(x)
         return self.TD.T @ P0, P0
 
 
