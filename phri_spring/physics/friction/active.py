@@ -35,6 +35,8 @@ __all__ = ["SlidingMaps", "active_step"]
 _HOPS = 6
 #: most Newton steps on the sliding patches' forces
 _NEWTON = 12
+#: the shortest fraction of a Newton step tried where the full one overshoots
+_DAMP_MIN = 1.0 / 16
 
 
 class SlidingMaps:
@@ -132,13 +134,11 @@ def _newton_one(sm, base, F, mu, tol):
     rho0, rho1 = sm.rho_list
     on_reading = sm.CN is not None
     gi = len(b) - 2
-    steps, last = 0, np.inf
+    steps, last, lam, prev = 0, np.inf, 1.0, None
     while True:
         v = [bi + Mi[0] * F0 + Mi[1] * F1 for bi, Mi in zip(b, M)]
-        Pn = v[0]
-        fc, dfc = Pn, M[0]
-        if on_reading and v[1] < Pn:
-            fc, dfc = v[1], M[1]
+        j = 1 if on_reading and v[1] < v[0] else 0      # the cone's row: P_n or f
+        fc, dfc = v[j], M[j]
         if fc <= 0.0:
             return np.array([True])
         g0, g1 = v[gi], v[gi + 1]
@@ -151,10 +151,23 @@ def _newton_one(sm, base, F, mu, tol):
         p0, p1 = F0 - R * h0, F1 - R * h1
         res = max(abs(p0), abs(p1))
         if res <= tol:
+            # on the cone exactly: with the direction found, |F| = mu fc is linear in fc
+            fc = b[j] / (1.0 - mu * (dfc[0] * h0 + dfc[1] * h1))
+            F0, F1 = mu * fc * h0, mu * fc * h1
+            g0 = b[gi] + M[gi][0] * F0 + M[gi][1] * F1
+            g1 = b[gi + 1] + M[gi + 1][0] * F0 + M[gi + 1][1] * F1
             return np.array([F0, F1]), np.array([[g0, g1]]), np.array([[h0, h1]]), steps
-        if steps == _NEWTON or res > last or not res < np.inf:
+        if not res < last:
+            # overshot (a slip direction turning fast): back along the step, or give up
+            if prev is None or lam <= _DAMP_MIN or steps == _NEWTON:
+                return None
+            lam *= 0.5
+            F0, F1 = prev[0] - lam * prev[2], prev[1] - lam * prev[3]
+            steps += 1
+            continue
+        if steps == _NEWTON:
             return None
-        last = res
+        last, lam = res, 1.0
         steps += 1
         # J = I - d(R yh)/dF, d(R yh)/dF = yh mu dfc + R/|y| (I - yh yh^T) dy/dF,
         # dy/dF = I + rho dg/dF
@@ -167,8 +180,11 @@ def _newton_one(sm, base, F, mu, tol):
         det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
         if det == 0.0:
             return None
-        F0 -= (a[1][1] * p0 - a[0][1] * p1) / det
-        F1 -= (a[0][0] * p1 - a[1][0] * p0) / det
+        d0 = (a[1][1] * p0 - a[0][1] * p1) / det
+        d1 = (a[0][0] * p1 - a[1][0] * p0) / det
+        prev = (F0, F1, d0, d1)
+        F0 -= d0
+        F1 -= d1
 
 
 def _solve(form, cache, code, z, r, F, tol):
@@ -209,7 +225,7 @@ def _newton(sm, base, F, mu, tol):
     """Newton's method on F = mu R y/|y| for K sliding patches (docstring of
     :func:`_solve`): (F, g (K, 2), yh (K, 2), steps), a mask of closing cones, or None."""
     K = sm.opn.size
-    steps, last = 0, np.inf
+    steps, last, lam, prev = 0, np.inf, 1.0, None
     while True:
         v = sm.M @ F
         v += base
@@ -241,12 +257,32 @@ def _newton(sm, base, F, mu, tol):
         phi = F - (R[:, None] * yh).reshape(-1)
         res = max(phi.max(), -phi.min())
         if res <= tol:
+            # on the cones exactly: with the directions found, F = mu Y fc and fc is
+            # affine in F, a K x K solve
+            if sm.CN is None or not on.any():
+                fb = base[:K]
+            elif on.all():
+                fb = base[K:2 * K]
+            else:
+                fb = np.where(on, base[K:2 * K], base[:K])
+            A = np.eye(K) - mu * np.einsum("ekc,kc->ek", dfc.reshape(K, K, 2), yh)
+            fc = lu_solve_or_none(A, fb)
+            if fc is None:
+                return None
+            F = (mu * fc[:, None] * yh).reshape(-1)
+            g = base[-2 * K:] + sm.Mg @ F
             return F, g.reshape(K, 2), yh, steps
-        # Newton converges quadratically where the state holds: a residual that does not
-        # fall is a state without a Coulomb solution
-        if steps == _NEWTON or res > last or not res < np.inf:
+        if not res < last:
+            # overshot (a slip direction turning fast): back along the step, or give up
+            if prev is None or lam <= _DAMP_MIN or steps == _NEWTON:
+                return None
+            lam *= 0.5
+            F = prev[0] - lam * prev[1]
+            steps += 1
+            continue
+        if steps == _NEWTON:
             return None
-        last = res
+        last, lam = res, 1.0
         steps += 1
         # d(R yh)/dF = yh mu dfc + R/|y| (I - yh yh^T) (I + rho dg/dF)
         proj = sm.I2 - yh[:, :, None] * yh[:, None, :]
@@ -255,6 +291,7 @@ def _newton(sm, base, F, mu, tol):
         dF = lu_solve_or_none(sm.I - dRy.reshape(2 * K, 2 * K), phi)
         if dF is None:
             return None
+        prev = (F, dF)
         F = F - dF
 
 
