@@ -21,6 +21,8 @@ g = G C_t P), grouped by patch.
 
 from __future__ import annotations
 
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,6 +32,13 @@ __all__ = ["PatchReading", "grouped_by_patch", "node_parts", "parts_sum"]
 #: rows of patch forces turned into node values at a time (bounds the temporary to
 #: _CHUNK x k floats: 8 MB for the 3 x 7 cuff's 1,029 nodes)
 _CHUNK = 1024
+#: rows per thread from which a reading is split over two threads
+_SPLIT_AT = 8 * _CHUNK
+
+
+def _one_blas_thread() -> bool:
+    return any(os.environ.get(v) == "1"
+               for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"))
 
 
 def node_parts(C_skin, traction, skin_dofs):
@@ -120,14 +129,34 @@ class PatchReading:
     def __call__(self, P) -> np.ndarray:
         P = np.atleast_2d(np.asarray(P, dtype=float))
         m = len(P)
+        out = np.empty((m, len(self.starts)))
+        # a long chunk's reading is a large product (1,029 node values per row) while the
+        # rest of a solve is one thread's small steps: where BLAS is held to one thread
+        # (as the command line does), its second half goes to a second thread (numpy lets
+        # go of the GIL in it), split at a multiple of _CHUNK so that every row is
+        # computed in the same blocks either way
+        half = (m // 2 // _CHUNK) * _CHUNK
+        if half >= _SPLIT_AT and _one_blas_thread():
+            try:
+                pool = ThreadPoolExecutor(1)
+            except RuntimeError:      # no thread to be had: one does it all
+                pool = None
+            if pool is not None:
+                with pool:
+                    rest = pool.submit(self._into, P[half:], out[half:])
+                    self._into(P[:half], out[:half])
+                    rest.result()
+                return out
+        self._into(P, out)
+        return out
+
+    def _into(self, P, out):
         starts = self.starts
-        out = np.empty((m, len(starts)))
         Gt = self.G.T
-        buf = np.empty((min(m, _CHUNK), len(self.owner)))
-        for a in range(0, m, _CHUNK):
+        buf = np.empty((min(len(P), _CHUNK), len(self.owner)))
+        for a in range(0, len(P), _CHUNK):
             Pc = P[a:a + _CHUNK]
             g = buf[:len(Pc)]
             np.matmul(Pc, Gt, out=g)
             np.maximum(g, 0.0, out=g)
             np.add.reduceat(g, starts, axis=1, out=out[a:a + len(Pc)])
-        return out

@@ -6,15 +6,15 @@ For a given state (which patches are stuck, sliding on an open cone, sliding on 
 one, released) the coupled equilibrium is linear except for the slip directions: with F
 (2K,) the tangential forces of the K patches sliding on an open cone, the cached maps of
 the state with those patches tied only on their normal and rotations
-(:class:`~phri_spring.physics.friction.maps.StuckMaps`) give u, the tied forces, each
-sliding patch's cone force R and its slip increment g, all affine in F
-(:class:`SlidingMaps`). The Coulomb law of a sliding patch, F_e = mu R_e g_e / |g_e|, is
+(:class:`~phri_spring.physics.friction.maps.StuckMaps`) give u, the patch forces, each
+sliding patch's cone force R and its slip increment g, and everything the state's checks
+read, all affine in the wrench, the ties and F (:class:`StateMaps`, one product per
+state tried). The Coulomb law of a sliding patch, F_e = mu R_e g_e / |g_e|, is
 then 2K equations in 2K unknowns, solved by Newton's method (K is a few patches, so a
 step is a 2K x 2K solve rather than one of the full system's 132 unknowns).
 
-Which state holds is found as a return mapping does: first the path's state as it was,
-then, where that is not consistent, the elastic predictor (every touching patch tied
-where it is) and its corrections, patch by patch: a stuck patch beyond its cone slides,
+Which state holds is found as a return mapping does: the elastic predictor (every
+touching patch tied where it is) and its corrections, patch by patch: a stuck patch beyond its cone slides,
 a sliding one whose cone closes slides freely, a patch pulled off is released, a
 released one pressed comes back. Every state accepted passes the checks of any answer
 (equilibrium by construction, compression, the cone, no penetration, slip along the
@@ -26,113 +26,160 @@ from __future__ import annotations
 
 import numpy as np
 
-from .form import RELEASED, SLIDING, STUCK, PathState, lu_solve_or_none, relative
+from .form import RELEASED, SLIDING, STUCK, PathState, lu_solve_or_none
 from .maps import MAPS_KEPT, stuck_maps
 
-__all__ = ["SlidingMaps", "active_step"]
+__all__ = ["StateMaps", "active_step"]
 
-#: most states tried per start (the path's own state, then the elastic predictor)
+#: most states tried per sample
 _HOPS = 6
 #: most Newton steps on the sliding patches' forces
 _NEWTON = 12
 #: the shortest fraction of a Newton step tried where the full one overshoots
 _DAMP_MIN = 1.0 / 16
-
-
-class SlidingMaps:
-    """Of one state with K patches sliding on an open cone (``opn``, indices): how u, the
-    tied forces P_D and, per sliding patch, its normal force P_n, its reading's integral f
-    and its relative tangential motion rel_t respond to their tangential forces F (2K,),
-    on top of the state's maps with F = 0 (``maps``, in which those patches are tied only
-    on the normal and rotations).
-
-    With G = C_DD^-1 (the tied compliance's inverse), the tied rows C_DD P_D + C_DS F =
-    T_D u + delta_D - z_D and the cuff T_D^T P_D + T_S^T F = r give
-    u = u_0 + Uf F and P_D = P_D,0 + Pf F with Uf = H^-1 (T_D^T G C_DS - T_S^T) and
-    Pf = G T_D Uf - G C_DS (H = T_D^T G T_D)."""
-
-    def __init__(self, form, maps, opn):
-        d = form.d
-        D = maps.D
-        self.opn = opn
-        self.Sd = (opn[:, None] * d + np.arange(1, 3)[None, :]).ravel()
-        Sd = self.Sd
-        C_DS = form.C[np.ix_(D, Sd)]
-        self.Uf = maps.Hinv @ (maps.GT.T @ C_DS - form.T[Sd].T)            # (6, 2K)
-        self.Pf = maps.GT @ self.Uf - maps.solve_tied(C_DS)                # (|D|, 2K)
-        self.nS = np.searchsorted(D, opn * d)
-        self.TS = form.T[Sd]
-        self.CSD = form.C[np.ix_(Sd, D)]
-        self.dS = form.delta[Sd]
-        self.Mn = self.Pf[self.nS]
-        self.Mg = self.TS @ self.Uf - self.CSD @ self.Pf - form.C[np.ix_(Sd, Sd)]
-        K = opn.size
-        # [P_n; f; rel_t] of the sliding patches = B_u u_0 + B_P P_D,0 + M F (+ delta_S)
-        # (f only with a reading's cone)
-        rows_u = [np.zeros((K, 6))]
-        rows_P = [np.eye(D.size)[self.nS]]
-        rows_M = [self.Mn]
-        if form.cone_normal is None:
-            self.CN, self.Mf = None, None
-        else:
-            cn = form.cone_normal[opn]
-            self.CN = np.ascontiguousarray(cn[:, D])
-            self.Mf = self.CN @ self.Pf + cn[:, Sd]
-            rows_u.append(np.zeros((K, 6)))
-            rows_P.append(self.CN)
-            rows_M.append(self.Mf)
-        rows_u.append(self.TS)
-        rows_P.append(-self.CSD)
-        rows_M.append(self.Mg)
-        self.B_u = np.vstack(rows_u)
-        self.B_P = np.vstack(rows_P)
-        self.M = np.vstack(rows_M)
-        self.g_rows = np.arange(self.M.shape[0] - 2 * K, self.M.shape[0])
-        self.B_c = np.zeros(self.M.shape[0])
-        self.B_c[self.g_rows] = self.dS
-        self.I = np.eye(2 * K)
-        self.rho = 1.0 / np.diag(form.C)[Sd]
-        self.Dy3 = (self.I + self.rho[:, None] * self.Mg).reshape(K, 2, 2 * K)
-        # the same as Python lists, for the scalar iteration of one sliding patch
-        self.M_list = self.M.tolist()
-        self.rho_list = self.rho.tolist()
-        self.Dy_list = self.Dy3.reshape(2 * K, 2 * K).tolist()
-        self.I2 = np.eye(2)[None]
-
-
 #: a patch's code in a state tried: released, stuck, sliding on an open cone, sliding on a
 #: closed one (free); the first two are the path's RELEASED and STUCK
 _OPEN, _FREE = 2, 3
 
 
-def _maps(form, cache, code):
-    """The maps of the state ``code`` (n,) int8: (StuckMaps or False where the state holds
-    no cuff, SlidingMaps or None, and the indices of the touching, stuck and free
-    patches)."""
+class StateMaps:
+    """One state's affine maps, stacked: Y = A0 [r; z_D] + AF F + c, with r the wrench,
+    z_D the ties of the tied dofs D and F (2K,) the tangential forces of the K patches
+    sliding on an open cone, and Y (in this order) u (6), P (n d), the reading's integral
+    f = cone_normal P (n, with a reading's cone), the released patches' gap (their
+    normal rel), and the sliding patches' (open, then free) tangential rel.
+
+    From the state's :class:`~phri_spring.physics.friction.maps.StuckMaps` (G = C_DD^-1,
+    H = T_D^T G T_D): u = H^-1 (r - T_D^T G (delta_D - z_D)) + Uf F and P_D = G T_D u +
+    G (delta_D - z_D) - G C_DS F, with Uf = H^-1 (T_D^T G C_DS - T_S^T); P on the sliding
+    dofs S is F, elsewhere 0. ``ok`` is False where the state holds no cuff."""
+
+    def __init__(self, form, cache, code):
+        n, d = form.n, form.d
+        N = n * d
+        maps = stuck_maps(form, cache, np.minimum(code, SLIDING), code >= _OPEN)
+        self.ok = bool(maps)
+        if not self.ok:
+            return
+        D = maps.D
+        nD = D.size
+        opn = np.flatnonzero(code == _OPEN)
+        K = opn.size
+        self.opn, self.K, self.D = opn, K, D
+        Sd = (opn[:, None] * d + np.arange(1, 3)[None, :]).reshape(-1)
+        self.Sd = Sd
+        G, GT, Hinv = maps.G, maps.GT, maps.Hinv
+        W = GT.T                                                  # T_D^T G (6, |D|)
+        dD = form.delta[D]
+        cols = 6 + nD + 2 * K
+        U = np.zeros((6, cols))
+        U[:, :6] = Hinv
+        U[:, 6:6 + nD] = Hinv @ W
+        cu = -(Hinv @ (W @ dD))
+        PD = np.zeros((nD, cols))
+        if K:
+            C_DS = form.C[np.ix_(D, Sd)]
+            U[:, 6 + nD:] = Hinv @ (W @ C_DS - form.T[Sd].T)
+            PD[:, 6 + nD:] = -(G @ C_DS)
+        PD += GT @ U
+        PD[:, 6:6 + nD] -= G
+        Pm = np.zeros((N, cols))
+        Pm[D] = PD
+        cP = np.zeros(N)
+        cP[D] = GT @ cu + G @ dD
+        if K:
+            Pm[Sd, 6 + nD:] = np.eye(2 * K)
+        blocks, consts = [U, Pm], [cu, cP]
+        self.on_reading = form.cone_normal is not None
+        if self.on_reading:
+            blocks.append(form.cone_normal @ Pm)
+            consts.append(form.cone_normal @ cP)
+        self.rel = maps.rel
+        slid = np.flatnonzero(code >= _OPEN)
+        slid = np.concatenate([opn, slid[code[slid] == _FREE]])   # open first, then free
+        self.free = slid[K:]
+        for rows in (form.normal[maps.rel],
+                     (slid[:, None] * d + np.arange(1, 3)[None, :]).reshape(-1)):
+            # rel = T u + delta - C P on these rows
+            blocks.append(form.T[rows] @ U - form.C[rows] @ Pm)
+            consts.append(form.T[rows] @ cu + form.delta[rows] - form.C[rows] @ cP)
+        A = np.vstack(blocks)
+        self.A0 = np.ascontiguousarray(A[:, :6 + nD])
+        self.AF = np.ascontiguousarray(A[:, 6 + nD:])
+        self.c = np.concatenate(consts)
+        # where each quantity sits in Y
+        at = 6 + N
+        self.f_at = at
+        at += n if self.on_reading else 0
+        self.pen = slice(at, at + maps.rel.size)
+        at += maps.rel.size
+        self.slid_rel = slice(at, at + 2 * slid.size)
+        self.slid = slid
+        self.touch = np.flatnonzero(code != RELEASED)
+        stuck = np.flatnonzero(code == STUCK)
+        self.stuck = stuck
+        self.stuck_t = (6 + stuck * d + 1, 6 + stuck * d + 2)
+        # the Newton iteration's rows [P_n; f; g] of the open patches and their
+        # response to F
+        if K:
+            rows = [6 + opn * d]
+            if self.on_reading:
+                rows.append(self.f_at + opn)
+            rows.append(np.arange(self.slid_rel.start, self.slid_rel.start + 2 * K))
+            self.newton_rows = np.concatenate(rows)
+            M = self.AF[self.newton_rows]
+            self.M, self.Mn, self.Mg = M, M[:K], M[-2 * K:]
+            self.Mf = M[K:2 * K] if self.on_reading else None
+            self.I = np.eye(2 * K)
+            self.I2 = np.eye(2)[None]
+            self.rho = 1.0 / np.diag(form.C)[Sd]
+            Dy = self.I + self.rho[:, None] * self.Mg
+            self.Dy3 = Dy.reshape(K, 2, 2 * K)
+            # the same as Python lists, for the scalar iteration of one sliding patch
+            self.M_list = M.tolist()
+            self.rho_list = self.rho.tolist()
+            self.Dy_list = Dy.tolist()
+
+
+def _state(form, cache, code):
+    """The :class:`StateMaps` of state ``code`` (n,) int8, from ``cache`` or made there."""
     key = b"active" + code.tobytes()      # apart from stuck_maps' keys
-    hit = cache.get(key)
-    if hit is None:
-        cls = np.minimum(code, SLIDING)
-        opn = code == _OPEN
-        maps = stuck_maps(form, cache, cls, code >= _OPEN)
-        sm = None if not maps or not opn.any() else SlidingMaps(form, maps, np.flatnonzero(opn))
-        # the patches each check is on: touching, stuck, sliding freely
-        hit = (maps, sm, np.flatnonzero(code != RELEASED), np.flatnonzero(code == STUCK),
-               np.flatnonzero(code == _FREE))
+    sm = cache.get(key)
+    if sm is None:
+        sm = StateMaps(form, cache, code)
         if len(cache) >= MAPS_KEPT:
             del cache[next(iter(cache))]
-        cache[key] = hit
-    return hit
+        cache[key] = sm
+    return sm
+
+
+def _solve(form, sm, z, r, F, tol):
+    """The state ``sm`` at wrench r with ties z: (Y, (g, yh) of the open patches or None,
+    Newton steps); a boolean mask over the open patches whose cones close on the way, or
+    None (see :func:`_newton`)."""
+    Y = sm.A0 @ np.concatenate((r, z.reshape(-1)[sm.D]))
+    Y += sm.c
+    if not sm.K:
+        return Y, None, 0
+    base = Y[sm.newton_rows]
+    base[-2 * sm.K:] -= z[sm.opn, 1:3].reshape(-1)
+    out = (_newton_one(sm, base, F, form.mu, tol) if sm.K == 1
+           else _newton(sm, base, F, form.mu, tol))
+    if out is None or not isinstance(out, tuple):
+        return out
+    F, g, yh, steps = out
+    Y += sm.AF @ F
+    return Y, (g, yh), steps
 
 
 def _newton_one(sm, base, F, mu, tol):
-    """The Newton iteration of :func:`_solve` for one sliding patch (K = 1), in scalars:
+    """The Newton iteration of :func:`_newton` for one sliding patch (K = 1), in scalars:
     (F, g, yh, steps), a boolean mask where its cone closes, or None."""
     F0, F1 = float(F[0]), float(F[1])
     b = base.tolist()
     M = sm.M_list
     rho0, rho1 = sm.rho_list
-    on_reading = sm.CN is not None
+    on_reading = sm.on_reading
     gi = len(b) - 2
     steps, last, lam, prev = 0, np.inf, 1.0, None
     while True:
@@ -187,50 +234,19 @@ def _newton_one(sm, base, F, mu, tol):
         F1 -= d1
 
 
-def _solve(form, cache, code, z, r, F, tol):
-    """The state ``code`` at wrench r with ties z: (u, P (n d,), (g, yh) of the open
-    patches or None, Newton steps, the state's maps from :func:`_maps`); None where the state holds no cuff
-    or its sliding patches find no Coulomb force (a slip that vanishes, no convergence: a
-    different state); a boolean mask over the open patches where their cones close on
-    the way."""
-    n, d, mu = form.n, form.d, form.mu
-    hit = _maps(form, cache, code)
-    maps, sm = hit[0], hit[1]
-    if not maps:
-        return None
-    D = maps.D
-    P0 = maps.G @ (maps.delta_D - z.reshape(-1)[D])
-    u = maps.Hinv @ (r - maps.TD.T @ P0)
-    PD = maps.GT @ u
-    PD += P0
-    P = np.zeros(n * d)
-    if sm is None:
-        P[D] = PD
-        return u, P, None, 0, hit
-    K = sm.opn.size
-    # [P_n; f; g] of the open patches at F = 0, then + M F
-    base = sm.B_u @ u + sm.B_P @ PD + sm.B_c
-    base[-2 * K:] -= z[sm.opn, 1:3].reshape(-1)
-    out = _newton_one(sm, base, F, mu, tol) if K == 1 else _newton(sm, base, F, mu, tol)
-    if out is None or not isinstance(out, tuple):
-        return out
-    F, g, yh, steps = out
-    u += sm.Uf @ F
-    P[D] = PD + sm.Pf @ F
-    P[sm.Sd] = F
-    return u, P, (g, yh), steps, hit
-
-
 def _newton(sm, base, F, mu, tol):
-    """Newton's method on F = mu R y/|y| for K sliding patches (docstring of
-    :func:`_solve`): (F, g (K, 2), yh (K, 2), steps), a mask of closing cones, or None."""
-    K = sm.opn.size
+    """Newton's method on the K sliding patches' forces F (2K,): F_e = mu R_e y_e/|y_e|
+    with R_e the cone's normal force and y_e = F_e + rho_e g_e, where [P_n; f; g] =
+    ``base`` + M F (:class:`StateMaps`). Returns (F, g (K, 2), y/|y| (K, 2), steps), a
+    boolean mask over the patches whose cones close on the way (they slide freely), or
+    None (a slip that vanishes, no convergence: not this state)."""
+    K = sm.K
     steps, last, lam, prev = 0, np.inf, 1.0, None
     while True:
         v = sm.M @ F
         v += base
         Pn = v[:K]
-        if sm.CN is None:
+        if not sm.on_reading:
             fc, dfc = Pn, sm.Mn
         else:
             fr = v[K:2 * K]
@@ -259,7 +275,7 @@ def _newton(sm, base, F, mu, tol):
         if res <= tol:
             # on the cones exactly: with the directions found, F = mu Y fc and fc is
             # affine in F, a K x K solve
-            if sm.CN is None or not on.any():
+            if not sm.on_reading or not on.any():
                 fb = base[:K]
             elif on.all():
                 fb = base[K:2 * K]
@@ -295,14 +311,13 @@ def _newton(sm, base, F, mu, tol):
         F = F - dF
 
 
-def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol, first=None):
+def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
     """One sample of the coupled model from ``state`` by active sets (module docstring):
     (u, P, new state, solves, True), or None where no consistent state is found (then the
     semismooth Newton takes the sample). ``f_tol``, ``x_tol``: the state checks'
-    tolerances [N, m]. ``first``: (u, P) of the path's own state at r where it is known
-    (a block of that state ended at this sample) and no patch slides: the predictor."""
+    tolerances [N, m]."""
     n, d, mu = form.n, form.d, form.mu
-    cone = form.cone_normal
+    N = n * d
     z = state.z.copy()
     tol = 1e-12 * (max(r.max(), -r.min()) + form.pre_scale)
     # the elastic predictor: every touching patch tied where it is (a sliding patch's tie
@@ -311,87 +326,88 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol, first=None
     F = np.zeros(0)
     solves = 0
     for _ in range(_HOPS):
-        if first is not None:
-            sol = first + (None, 0, _maps(form, cache, code))
-            first = None
-        else:
-            sol = _solve(form, cache, code, z, r, F, tol)
+        sm = _state(form, cache, code)
+        if not sm.ok:
+            return None
+        sol = _solve(form, sm, z, r, F, tol)
         solves += 1
         if sol is None:
             return None
         if not isinstance(sol, tuple):
             # sliding patches whose cone closes on the way: they slide freely
-            code[np.flatnonzero(code == _OPEN)[sol]] = _FREE
+            code[sm.opn[sol]] = _FREE
             F = F.reshape(-1, 2)[~sol].reshape(-1)
             continue
-        u, P, slip, steps, (maps, sm, touch, stuck, fre) = sol
+        Y, slip, steps = sol
         solves += steps
+        P = Y[6:6 + N]
         Pn = P[0::d]
-        tn = np.hypot(P[1::d], P[2::d])
-        fc = Pn if cone is None else np.minimum(Pn, cone @ P)
+        fc = np.minimum(Pn, Y[sm.f_at:sm.f_at + n]) if sm.on_reading else Pn
         # the usual outcome first, in few operations: every check passes
-        ok = Pn[touch].min() >= -f_tol
-        if ok and stuck.size:
-            ok = (tn[stuck] - mu * np.maximum(fc[stuck], 0.0)).max() <= f_tol
-        if ok and sm is not None:
+        ok = Pn[sm.touch].min() >= -f_tol
+        if ok and sm.stuck.size:
+            tn = np.hypot(Y[sm.stuck_t[0]], Y[sm.stuck_t[1]])
+            ok = (tn - mu * np.maximum(fc[sm.stuck], 0.0)).max() <= f_tol
+        if ok and sm.K:
             g, yh = slip
             ok = (fc[sm.opn].min() > 0.0
                   and (g[:, 0] * yh[:, 0] + g[:, 1] * yh[:, 1]).min() >= -x_tol)
-        if ok and fre.size:
-            ok = fc[fre].max() <= f_tol
-        if ok and maps.rel.size:
-            ok = (maps.T_rel @ u + maps.d_rel - maps.C_rel @ P).max() <= x_tol
+        if ok and sm.free.size:
+            ok = fc[sm.free].max() <= f_tol
+        if ok and sm.rel.size:
+            ok = Y[sm.pen].max() <= x_tol
         if ok:
             s = state.s
-            if maps.free.size:
-                rel = relative(form, u, P).reshape(n, d)
+            if sm.slid.size:
+                # a sliding patch's tie is where its slip ended; a free one's follows the
+                # skin: both where the patch is now
+                z[sm.slid, 1:3] = Y[sm.slid_rel].reshape(-1, 2)
                 s = s.copy()
-                if sm is not None:
-                    z[sm.opn, 1:3] = rel[sm.opn, 1:3]
+                s[sm.slid] = 0.0
+                if sm.K:
                     s[sm.opn] = yh
-                # a free patch's tie follows the skin: where it is now
-                z[fre, 1:3] = rel[fre, 1:3]
-                s[fre] = 0.0
-            cls = np.minimum(code, SLIDING)
-            return u, P, PathState(cls=cls, z=z, s=s, u=u, P=P), solves, True
+            u, P = Y[:6].copy(), P.copy()
+            return u, P, PathState(cls=np.minimum(code, SLIDING), z=z, s=s, u=u, P=P), \
+                solves, True
         # the next state: each patch corrected on its own, as a return mapping does
         new = code.copy()
         lift = Pn < -f_tol
         lift &= code != RELEASED
         new[lift] = RELEASED
+        Pe = P.reshape(n, d)
+        tn = np.hypot(Pe[:, 1], Pe[:, 2])
         over = tn > mu * np.maximum(fc, 0.0) + f_tol
         over &= code == STUCK
         over &= ~lift
         if over.any():
             # a stuck patch beyond its cone slides: on its cone, or freely if that closed
             new[over] = np.where(fc[over] > 0.0, _OPEN, _FREE)
-        if sm is not None:
+        if sm.K:
             o = sm.opn
             g, yh = slip
             # a sliding patch whose cone closed slides freely; one whose slip would run
             # against its force sticks
             new[o[(fc[o] <= 0.0) & ~lift[o]]] = _FREE
             new[o[(g[:, 0] * yh[:, 0] + g[:, 1] * yh[:, 1] < -x_tol) & ~lift[o]]] = STUCK
-        reopened = fre[(fc[fre] > f_tol) & ~lift[fre]]
-        if reopened.size:
+        fr = sm.free
+        reopened = (fc[fr] > f_tol) & ~lift[fr]
+        if reopened.any():
             # it sticks where it is now
-            new[reopened] = STUCK
-            rel = relative(form, u, P).reshape(n, d)
-            z[reopened, 1:3] = rel[reopened, 1:3]
-        if maps.rel.size:
+            new[fr[reopened]] = STUCK
+            at = Y[sm.slid_rel].reshape(-1, 2)[sm.K:]
+            z[fr[reopened], 1:3] = at[reopened]
+        if sm.rel.size:
             # a released patch whose skin the others press into its cuff comes back,
             # landing where its skin was at the last sample (as in the semismooth Newton)
-            pen = maps.T_rel @ u + maps.d_rel - maps.C_rel @ P
-            back = maps.rel[pen > x_tol]
+            back = sm.rel[Y[sm.pen] > x_tol]
             if back.size:
                 new[back] = STUCK
-                land = relative(form, state.u, state.P).reshape(n, d)
+                land = (form.T @ state.u + form.delta - form.C @ state.P).reshape(n, d)
                 z[back, 1:] = land[back, 1:]
         if not new.any() or np.array_equal(new, code):
             return None
         # a newly sliding patch starts on its cone along the force it had stuck, or, if
         # it slid at the last sample, with the force it had then
-        Pe = P.reshape(n, d)
         Fe = Pe[:, 1:3].copy()
         to_open = over & (new == _OPEN)
         if to_open.any():

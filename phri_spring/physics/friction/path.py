@@ -67,8 +67,8 @@ _FIRST_BLOCK = 8
 
 def _block(form, maps, state, r, f_tol, x_tol):
     """Solve rows r (m, 6) in the state ``state`` (no sliding patch); returns
-    (u, P, k, u_next, P_next): the first k rows keep the state (k = m if all do); u_next,
-    P_next: the state's solution at row k (a start for the event there), None if k = m."""
+    (u, P, k, u_next): the first k rows keep the state (k = m if all do); u_next is the
+    state's displacement at row k (a start for the event there), None if k = m."""
     n, d, mu = form.n, form.d, form.mu
     c, P0 = maps.offsets(form, state.z)
     u = (r - c) @ maps.Hinv.T
@@ -98,20 +98,16 @@ def _block(form, maps, state, r, f_tol, x_tol):
     k = int(bad[0]) if bad.size else m
     P = np.zeros((k, n * d))
     P[:, maps.D] = PD[:k]
-    if k == m:
-        return u, P, k, None, None
-    P_next = np.zeros(n * d)
-    P_next[maps.D] = PD[k]
-    return u[:k], P, k, u[k], P_next
+    return u[:k], P, k, (u[k] if k < m else None)
 
 
 def _free_sliders(state):
     """The sliding patches of ``state`` whose cone has closed (slip direction 0), or None
     where a patch slides on an open cone (then every sample is an event)."""
+    if state.cls.max() < SLIDING:         # SLIDING is the largest state code
+        return np.zeros(len(state.cls), dtype=bool)
     sl = state.cls == SLIDING
-    if not sl.any():
-        return np.zeros(len(sl), dtype=bool)
-    if np.any(state.s[sl] != 0.0):
+    if state.s[sl].any():
         return None
     return sl
 
@@ -231,8 +227,10 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
         unheld = cache.get(key)
         if unheld is None:
             unheld = cache[key] = frictionless_unheld(form)
+    active = (_ACTIVE_SETS and not form.diagonal and form.cone_normal is not None
+              and form.mu > 0)
     while i < m:
-        guess = first = None
+        guess = None
         if unheld is not None and np.abs(unheld @ r[i]).max() > f_tol[i]:
             # frictionless elements push only along their normals: a wrench outside their
             # span (an axial force, a torsion) has no equilibrium, whatever the state
@@ -250,8 +248,8 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                 # block while it does, start small again after an event
                 e = min(m, i + width)
                 if form.normal_response is None:
-                    ub, Pb, k, guess, first = _block(form, maps, state, r[i:e], f_tol[i:e],
-                                                     x_tol[i:e])
+                    ub, Pb, k, guess = _block(form, maps, state, r[i:e], f_tol[i:e],
+                                              x_tol[i:e])
                 else:   # a nonlinear tissue law: Newton per row, the state fixed
                     ub, Pb, k, guess = block_nonlinear(form, state, r[i:e], f_tol[i:e],
                                                        x_tol[i:e])
@@ -285,11 +283,9 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             hop = None
             if form.diagonal:
                 pass
-            elif _ACTIVE_SETS and form.cone_normal is not None and form.mu > 0:
+            elif active:
                 # friction set by the user: slips, sticks and lifts by active sets
-                hop = active_step(form, cache, state, r[i], f_tol[i], x_tol[i],
-                                  (guess, first) if first is not None and not free.any()
-                                  else None)
+                hop = active_step(form, cache, state, r[i], f_tol[i], x_tol[i])
             elif guess is not None and not (state.cls == SLIDING).any():
                 hop = _stuck_transition(form, cache, state, r[i], f_tol[i], x_tol[i])
             if hop is not None:
