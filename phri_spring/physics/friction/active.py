@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .form import RELEASED, SLIDING, STUCK, PathState, lu_solve_or_none
+from .form import RELEASED, SLIDING, STATE_RTOL, STUCK, PathState, lu_solve_or_none
 from .maps import MAPS_KEPT, stuck_maps
 
 __all__ = ["StateMaps", "active_step"]
@@ -131,8 +131,12 @@ class StateMaps:
             self.M, self.Mn, self.Mg = M, M[:K], M[-2 * K:]
             self.Mf = M[K:2 * K] if self.on_reading else None
             self.I = np.eye(2 * K)
+            self.IK = np.eye(K)
             self.I2 = np.eye(2)[None]
-            self.rho = 1.0 / np.diag(form.C)[Sd]
+            # one augmentation per patch for both tangential dofs: y = F + rho g is then
+            # along F only where the slip g is (isotropic friction: slip along the force)
+            rho = 1.0 / np.diag(form.C)[Sd].reshape(K, 2)
+            self.rho = np.repeat(rho.mean(axis=1), 2)
             Dy = self.I + self.rho[:, None] * self.Mg
             self.Dy3 = Dy.reshape(K, 2, 2 * K)
             # the same as Python lists, for the scalar iteration of one sliding patch
@@ -163,8 +167,8 @@ def _solve(form, sm, z, r, F, tol):
         return Y, None, 0
     base = Y[sm.newton_rows]
     base[-2 * sm.K:] -= z[sm.opn, 1:3].reshape(-1)
-    out = (_newton_one(sm, base, F, form.mu, tol) if sm.K == 1
-           else _newton(sm, base, F, form.mu, tol))
+    newton = _newton_one if sm.K == 1 else _newton_few if sm.K <= 3 else _newton
+    out = newton(sm, base, F, form.mu, tol)
     if out is None or not isinstance(out, tuple):
         return out
     F, g, yh, steps = out
@@ -221,9 +225,9 @@ def _newton_one(sm, base, F, mu, tol):
         Dy = sm.Dy_list
         k = R / ny
         q00, q01, q11 = 1.0 - h0 * h0, -h0 * h1, 1.0 - h1 * h1
-        a = [[(1.0 if i == j else 0.0) - mu * (h0, h1)[i] * dfc[j]
-              - k * ((q00, q01)[i] * Dy[0][j] + (q01, q11)[i] * Dy[1][j])
-              for j in (0, 1)] for i in (0, 1)]
+        a = [[(1.0 if i == c else 0.0) - mu * (h0, h1)[i] * dfc[c]
+              - k * ((q00, q01)[i] * Dy[0][c] + (q01, q11)[i] * Dy[1][c])
+              for c in (0, 1)] for i in (0, 1)]
         det = a[0][0] * a[1][1] - a[0][1] * a[1][0]
         if det == 0.0:
             return None
@@ -232,6 +236,102 @@ def _newton_one(sm, base, F, mu, tol):
         prev = (F0, F1, d0, d1)
         F0 -= d0
         F1 -= d1
+
+
+def _gauss(a, b):
+    """x with a x = b for a small dense system (lists, modified in place), by Gaussian
+    elimination with partial pivoting; None if singular."""
+    k = len(b)
+    for c in range(k):
+        p = max(range(c, k), key=lambda i: abs(a[i][c]))
+        if a[p][c] == 0.0:
+            return None
+        if p != c:
+            a[c], a[p] = a[p], a[c]
+            b[c], b[p] = b[p], b[c]
+        piv = a[c][c]
+        for i in range(c + 1, k):
+            f = a[i][c] / piv
+            if f != 0.0:
+                ai, ac = a[i], a[c]
+                for j in range(c + 1, k):
+                    ai[j] -= f * ac[j]
+                b[i] -= f * b[c]
+    x = [0.0] * k
+    for c in range(k - 1, -1, -1):
+        t = b[c]
+        ac = a[c]
+        for j in range(c + 1, k):
+            t -= ac[j] * x[j]
+        x[c] = t / ac[c]
+    return x
+
+
+def _newton_few(sm, base, F, mu, tol):
+    """:func:`_newton` for a few sliding patches (K = 2 or 3) in Python scalars: at this
+    size a step's dozens of array operations cost more than its arithmetic."""
+    K = sm.K
+    K2 = 2 * K
+    F = F.tolist()
+    b = base.tolist()
+    M = sm.M_list
+    rho = sm.rho_list
+    Dy = sm.Dy_list
+    gi = len(b) - K2
+    fi = K if sm.on_reading else 0
+    steps, last, lam, prev = 0, np.inf, 1.0, None
+    while True:
+        v = [bi + sum(m_ * f_ for m_, f_ in zip(Mi, F)) for bi, Mi in zip(b, M)]
+        rows = [K + e if sm.on_reading and v[K + e] < v[e] else e for e in range(K)]
+        fc = [v[j] for j in rows]
+        if min(fc) <= 0.0:
+            return np.array([x <= 0.0 for x in fc])
+        y = [F[i] + rho[i] * v[gi + i] for i in range(K2)]
+        ny = [(y[2 * e] ** 2 + y[2 * e + 1] ** 2) ** 0.5 for e in range(K)]
+        if min(ny) <= 0.0:
+            return None
+        h = [y[i] / ny[i // 2] for i in range(K2)]
+        R = [mu * x for x in fc]
+        phi = [F[i] - R[i // 2] * h[i] for i in range(K2)]
+        res = max(abs(x) for x in phi)
+        if res <= tol:
+            # on the cones exactly (as in _newton): fc = fb + dfc mu Y fc
+            A = [[(1.0 if e == c else 0.0)
+                  - mu * (M[rows[e]][2 * c] * h[2 * c] + M[rows[e]][2 * c + 1] * h[2 * c + 1])
+                  for c in range(K)] for e in range(K)]
+            fc = _gauss(A, [b[j] for j in rows])
+            if fc is None:
+                return None
+            F = np.array([mu * fc[i // 2] * h[i] for i in range(K2)])
+            g = np.asarray(b[gi:]) + sm.Mg @ F
+            return F, g.reshape(K, 2), np.asarray(h).reshape(K, 2), steps
+        if not res < last:
+            # overshot (a slip direction turning fast): back along the step, or give up
+            if prev is None or lam <= _DAMP_MIN or steps == _NEWTON:
+                return None
+            lam *= 0.5
+            F = [f0 - lam * d0 for f0, d0 in zip(*prev)]
+            steps += 1
+            continue
+        if steps == _NEWTON:
+            return None
+        last, lam = res, 1.0
+        steps += 1
+        # J = I - d(R yh)/dF with d(R yh_e)/dF = yh_e mu dfc_e + R_e/|y_e| (I - yh yh^T) Dy_e
+        J = []
+        for i in range(K2):
+            e, a = i // 2, i % 2
+            k = R[e] / ny[e]
+            q0 = (1.0 if a == 0 else 0.0) - h[i] * h[2 * e]
+            q1 = (1.0 if a == 1 else 0.0) - h[i] * h[2 * e + 1]
+            Me, D0, D1 = M[rows[e]], Dy[2 * e], Dy[2 * e + 1]
+            J.append([(1.0 if i == c else 0.0) - mu * h[i] * Me[c]
+                      - k * (q0 * D0[c] + q1 * D1[c]) for c in range(K2)])
+        dF = _gauss(J, phi)
+        if dF is None:
+            return None
+        prev = (F, dF)
+        F = [f0 - d0 for f0, d0 in zip(F, dF)]
 
 
 def _newton(sm, base, F, mu, tol):
@@ -281,7 +381,7 @@ def _newton(sm, base, F, mu, tol):
                 fb = base[K:2 * K]
             else:
                 fb = np.where(on, base[K:2 * K], base[:K])
-            A = np.eye(K) - mu * np.einsum("ekc,kc->ek", dfc.reshape(K, K, 2), yh)
+            A = sm.IK - mu * (dfc.reshape(K, K, 2) * yh[None]).sum(axis=2)
             fc = lu_solve_or_none(A, fb)
             if fc is None:
                 return None
@@ -319,7 +419,7 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
     n, d, mu = form.n, form.d, form.mu
     N = n * d
     z = state.z.copy()
-    tol = 1e-12 * (max(r.max(), -r.min()) + form.pre_scale)
+    tol = f_tol * (1e-12 / STATE_RTOL)     # 1e-12 of the sample's force scale
     # the elastic predictor: every touching patch tied where it is (a sliding patch's tie
     # is where its last slip ended, a free one's where its skin was), corrected from there
     code = (state.cls != RELEASED).astype(np.int8)
@@ -404,7 +504,7 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
                 new[back] = STUCK
                 land = (form.T @ state.u + form.delta - form.C @ state.P).reshape(n, d)
                 z[back, 1:] = land[back, 1:]
-        if not new.any() or np.array_equal(new, code):
+        if not new.any() or not (new != code).any():
             return None
         # a newly sliding patch starts on its cone along the force it had stuck, or, if
         # it slid at the last sample, with the force it had then
@@ -413,8 +513,9 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
         if to_open.any():
             Fe[to_open] *= (mu * fc[to_open] / tn[to_open])[:, None]
             cont = to_open & (state.cls == SLIDING)
-            cont &= np.any(state.s != 0.0, axis=1)
-            Fe[cont] = state.P.reshape(n, d)[cont, 1:3]
+            if cont.any():
+                cont &= (state.s[:, 0] != 0.0) | (state.s[:, 1] != 0.0)
+                Fe[cont] = state.P.reshape(n, d)[cont, 1:3]
         code = new
         F = Fe[code == _OPEN].reshape(-1)
     return None

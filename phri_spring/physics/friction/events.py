@@ -171,7 +171,9 @@ def solve_event_coupled(form: InterfaceForm, r, state: PathState, u0=None):
       mu [min(P_n, f) + rho_n rel_n]_+ for a touching patch;
     * rotations: tied (rel_r = z_r) while pressing, free moments of 0 when released;
 
-    and the cuff: T^T P = r. rho are each dof's own stiffness 1/C_ii. Returns (u, P, new
+    and the cuff: T^T P = r. rho is each dof's own stiffness 1/C_ii (with friction set, a
+    patch's two tangential dofs share their mean: the force then lies along the slip,
+    :class:`~phri_spring.physics.friction.form.EventArrays`). Returns (u, P, new
     state, solves, ok) as :func:`solve_event_elements`.
     """
     n, d, mu = form.n, form.d, form.mu

@@ -105,6 +105,13 @@ class EventArrays:
         self.dof = np.arange(N).reshape(n, d)
         self.nrm, self.tan, self.rot = self.dof[:, 0], self.dof[:, 1:3], self.dof[:, 3:]
         self.rho = 1.0 / np.diag(form.C)
+        if form.cone_normal is not None:
+            # friction set by the user: one value per patch for both tangential dofs, so
+            # that the projection of y = P_t + rho rel_t puts the force along the slip
+            # (isotropic Coulomb friction); a value per dof puts it along the slip scaled
+            # by each dof's stiffness, which the default's lift-off cone (only a smooth
+            # release) keeps, its outputs as they were
+            self.rho[self.tan] = self.rho[self.tan].mean(axis=1, keepdims=True)
         self.rho_n, self.rho_t = self.rho[self.nrm], self.rho[self.tan]
         self.dRel = np.hstack([-form.C, form.T])
         self.TT = np.ascontiguousarray(form.T.T)

@@ -281,12 +281,10 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             ui, Pi, new, its, ok = state.u, state.P, state, 1, False
         else:
             hop = None
-            if form.diagonal:
-                pass
-            elif active:
+            if active:
                 # friction set by the user: slips, sticks and lifts by active sets
                 hop = active_step(form, cache, state, r[i], f_tol[i], x_tol[i])
-            elif guess is not None and not (state.cls == SLIDING).any():
+            elif guess is not None and not form.diagonal and not (state.cls == SLIDING).any():
                 hop = _stuck_transition(form, cache, state, r[i], f_tol[i], x_tol[i])
             if hop is not None:
                 ui, Pi, new, its, ok = hop
