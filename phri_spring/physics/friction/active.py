@@ -411,6 +411,76 @@ def _newton(sm, base, F, mu, tol):
         F = F - dF
 
 
+def _next_state(form, state, sm, code, z, Y, P, fc, slip, f_tol, x_tol):
+    """The state to try after ``code`` failed a check, patch by patch (see
+    :func:`active_step`), with the sliding forces to start from: (code, F), or (None,
+    None) where nothing would change or nothing touches. ``P``, ``fc``: the patch forces
+    (n d) and cone forces (n) of the state tried, as lists; ties z are updated in place
+    for patches that stick where they are or come back."""
+    n, d, mu = form.n, form.d, form.mu
+    old = code.tolist()
+    new = list(old)
+    if slip is not None:
+        g, yh = slip
+        along = (g[:, 0] * yh[:, 0] + g[:, 1] * yh[:, 1]).tolist()
+    start = {}                      # a newly sliding patch's force to start from
+    slid_before = None              # the patches that slid on an open cone at the last sample
+    k = 0                           # the open patches' order in slip
+    for e in range(n):
+        c = old[e]
+        if c == RELEASED:
+            continue
+        i = e * d
+        if P[i] < -f_tol:
+            new[e] = RELEASED
+        elif c == STUCK:
+            t0, t1 = P[i + 1], P[i + 2]
+            tn = (t0 * t0 + t1 * t1) ** 0.5
+            f = fc[e]
+            if tn > mu * max(f, 0.0) + f_tol:
+                # beyond its cone it slides: on the cone along the force it had stuck (or,
+                # if it slid at the last sample, with the force it had then), or freely
+                # where the cone has closed
+                if f > 0.0:
+                    new[e] = _OPEN
+                    if slid_before is None:
+                        slid_before = set(np.flatnonzero(
+                            (state.cls == SLIDING) & state.s.any(axis=1)).tolist())
+                    if e in slid_before:
+                        start[e] = (float(state.P[i + 1]), float(state.P[i + 2]))
+                    else:
+                        start[e] = (t0 * mu * f / tn, t1 * mu * f / tn)
+                else:
+                    new[e] = _FREE
+        elif c == _OPEN:
+            if fc[e] <= 0.0:
+                new[e] = _FREE          # its cone closed: it slides freely
+            elif along[k] < -x_tol:
+                new[e] = STUCK          # its slip would run against its force
+        elif fc[e] > f_tol:
+            new[e] = STUCK              # a free patch's cone opens: it sticks where it is
+            at = sm.slid_rel.start + 2 * int(np.flatnonzero(sm.slid == e)[0])
+            z[e, 1:3] = Y[at:at + 2]
+        if c == _OPEN:
+            k += 1
+    if sm.rel.size:
+        # a released patch whose skin the others press into its cuff comes back, landing
+        # where its skin was at the last sample (as in the semismooth Newton)
+        back = sm.rel[Y[sm.pen] > x_tol]
+        if back.size:
+            for e in back.tolist():
+                new[e] = STUCK
+            land = (form.T @ state.u + form.delta - form.C @ state.P).reshape(n, d)
+            z[back, 1:] = land[back, 1:]
+    if new == old or not any(new):
+        return None, None
+    F = []
+    for e in range(n):
+        if new[e] == _OPEN:
+            F.extend(start.get(e, (P[e * d + 1], P[e * d + 2])))
+    return np.array(new, dtype=np.int8), np.array(F)
+
+
 def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
     """One sample of the coupled model from ``state`` by active sets (module docstring):
     (u, P, new state, solves, True), or None where no consistent state is found (then the
@@ -418,6 +488,7 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
     tolerances [N, m]."""
     n, d, mu = form.n, form.d, form.mu
     N = n * d
+    f_tol, x_tol = float(f_tol), float(x_tol)      # Python scalars for the per-patch loop
     z = state.z.copy()
     tol = f_tol * (1e-12 / STATE_RTOL)     # 1e-12 of the sample's force scale
     # the elastic predictor: every touching patch tied where it is (a sliding patch's tie
@@ -469,53 +540,11 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
             u, P = Y[:6].copy(), P.copy()
             return u, P, PathState(cls=np.minimum(code, SLIDING), z=z, s=s, u=u, P=P), \
                 solves, True
-        # the next state: each patch corrected on its own, as a return mapping does
-        new = code.copy()
-        lift = Pn < -f_tol
-        lift &= code != RELEASED
-        new[lift] = RELEASED
-        Pe = P.reshape(n, d)
-        tn = np.hypot(Pe[:, 1], Pe[:, 2])
-        over = tn > mu * np.maximum(fc, 0.0) + f_tol
-        over &= code == STUCK
-        over &= ~lift
-        if over.any():
-            # a stuck patch beyond its cone slides: on its cone, or freely if that closed
-            new[over] = np.where(fc[over] > 0.0, _OPEN, _FREE)
-        if sm.K:
-            o = sm.opn
-            g, yh = slip
-            # a sliding patch whose cone closed slides freely; one whose slip would run
-            # against its force sticks
-            new[o[(fc[o] <= 0.0) & ~lift[o]]] = _FREE
-            new[o[(g[:, 0] * yh[:, 0] + g[:, 1] * yh[:, 1] < -x_tol) & ~lift[o]]] = STUCK
-        fr = sm.free
-        reopened = (fc[fr] > f_tol) & ~lift[fr]
-        if reopened.any():
-            # it sticks where it is now
-            new[fr[reopened]] = STUCK
-            at = Y[sm.slid_rel].reshape(-1, 2)[sm.K:]
-            z[fr[reopened], 1:3] = at[reopened]
-        if sm.rel.size:
-            # a released patch whose skin the others press into its cuff comes back,
-            # landing where its skin was at the last sample (as in the semismooth Newton)
-            back = sm.rel[Y[sm.pen] > x_tol]
-            if back.size:
-                new[back] = STUCK
-                land = (form.T @ state.u + form.delta - form.C @ state.P).reshape(n, d)
-                z[back, 1:] = land[back, 1:]
-        if not new.any() or not (new != code).any():
+        # the next state: each patch corrected on its own, as a return mapping does (a
+        # loop over the patches: few of them change, and at this size Python's scalars
+        # cost less than a few dozen array operations)
+        code, F = _next_state(form, state, sm, code, z, Y, P.tolist(), fc.tolist(), slip,
+                              f_tol, x_tol)
+        if code is None:
             return None
-        # a newly sliding patch starts on its cone along the force it had stuck, or, if
-        # it slid at the last sample, with the force it had then
-        Fe = Pe[:, 1:3].copy()
-        to_open = over & (new == _OPEN)
-        if to_open.any():
-            Fe[to_open] *= (mu * fc[to_open] / tn[to_open])[:, None]
-            cont = to_open & (state.cls == SLIDING)
-            if cont.any():
-                cont &= (state.s[:, 0] != 0.0) | (state.s[:, 1] != 0.0)
-                Fe[cont] = state.P.reshape(n, d)[cont, 1:3]
-        code = new
-        F = Fe[code == _OPEN].reshape(-1)
     return None
