@@ -37,7 +37,11 @@ pressing, sliding ones pressing with their slip increment along s, released ones
 penetrating. Samples that leave the state unchanged (every pressing patch stuck, the
 set of released ones the same) are affine in the wrench and solved together, so a
 log costs a few vectorised products between the samples where something slips,
-lifts off or comes back. The problem is not convex (Coulomb friction is not the
+lifts off or comes back. Those samples are events: the spring model's by a semismooth
+Newton method on u (:mod:`.events`); the coupled model's, with a friction coefficient
+set, by active sets on the sliding patches' forces (:mod:`.active`), the semismooth
+Newton on all patch forces where those find no state (and for the default's lift-off
+cone). The problem is not convex (Coulomb friction is not the
 minimum of an energy); what the solver guarantees is that every sample it reports as
 converged satisfies equilibrium to round-off, the cone, compressive normal forces and
 no penetration, checked; otherwise the sample is flagged and its forces are NaN, and
