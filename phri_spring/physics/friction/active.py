@@ -9,7 +9,7 @@ the state with those patches tied only on their normal and rotations
 (:class:`~phri_spring.physics.friction.maps.StuckMaps`) give u, the patch forces, each
 sliding patch's cone force R and its slip increment g, and everything the state's checks
 read, all affine in the wrench, the ties and F (:class:`StateMaps`, one product per
-state tried). The Coulomb law of a sliding patch, F_e = mu R_e g_e / |g_e|, is
+state tried). The Coulomb law of a sliding patch, ``F_e = mu R_e g_e / |g_e|``, is
 then 2K equations in 2K unknowns, solved by Newton's method (K is a few patches, so a
 step is a 2K x 2K solve rather than one of the full system's 132 unknowns).
 

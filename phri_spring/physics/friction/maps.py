@@ -95,7 +95,8 @@ class StuckMaps:
         return self._delta[self.D]
 
     def solve_tied(self, x):
-        """C_DD^-1 x for x (|D|,) or (|D|, k): the tied compliance's inverse applied."""
+        """C_DD^-1 x for x of D's length, or (that length, k) rows: the tied compliance's
+        inverse applied."""
         return self._G(x)
 
     def offsets(self, form, z):
