@@ -278,7 +278,6 @@ def _newton_few(sm, base, F, mu, tol):
     rho = sm.rho_list
     Dy = sm.Dy_list
     gi = len(b) - K2
-    fi = K if sm.on_reading else 0
     steps, last, lam, prev = 0, np.inf, 1.0, None
     while True:
         v = [bi + sum(m_ * f_ for m_, f_ in zip(Mi, F)) for bi, Mi in zip(b, M)]
