@@ -53,6 +53,30 @@ def test_the_reading_is_the_sum_of_positive_parts(n, per, seed):
         assert np.all(reading[nothing, e] == 0.0)
 
 
+@pytest.mark.parametrize("pinned", [True, False])
+def test_a_long_reading_is_the_same_split_over_two_threads(monkeypatch, pinned):
+    """Where BLAS is held to one thread, a long reading's second half goes to a second
+    thread, split at a multiple of the row blocks: every row comes out bit for bit as the
+    one-thread reading's (reference: the rows read 1,024 at a time in this thread)."""
+    from phri_spring.physics.continuum import reading as rd
+
+    for v in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        monkeypatch.delenv(v, raising=False)
+    if pinned:
+        monkeypatch.setenv("OPENBLAS_NUM_THREADS", "1")
+    rng = np.random.default_rng(7)
+    n, d = 4, 6
+    owner = np.repeat(np.arange(n), 5)
+    reading = PatchReading(G=rng.normal(size=(len(owner), n * d)), owner=owner)
+    P = rng.normal(size=(2 * rd._SPLIT_AT + 3 * rd._CHUNK + 17, n * d))
+    expected = np.empty((len(P), n))
+    for a in range(0, len(P), rd._CHUNK):
+        Pc = P[a:a + rd._CHUNK]
+        expected[a:a + len(Pc)] = np.add.reduceat(np.maximum(Pc @ reading.G.T, 0.0),
+                                                  reading.starts, axis=1)
+    np.testing.assert_array_equal(reading(P), expected)
+
+
 def test_rows_must_name_every_patch_in_order():
     with pytest.raises(ValueError, match="every patch"):
         PatchReading.build(np.ones((2, 6)), [0, 0], np.eye(6), 2)
