@@ -76,7 +76,7 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     kn, kt, dn = el.kn, el.kt, el.dn
     normal = form.normal_response
     # the tissue's share of every element, carried between evaluations as the next guess
-    share = [None if normal is None else
+    share = [None if normal is None else state.memo if state.memo is not None else
              normal.memo_from_force(state.P[0::3], el.Tn @ state.u + dn)]
     # where each element's tie starts: stuck or sliding ones from their slip, released
     # ones land where they were at the last sample (their skin does not move)
@@ -152,7 +152,7 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
     P = np.zeros((n, 3))
     P[:, 0], P[:, 1:3] = Pn, Pt
     P = P.ravel()
-    return u, P, PathState(cls=cls, z=z, s=s_dir, u=u, P=P), max(its, 1), True
+    return u, P, PathState(cls=cls, z=z, s=s_dir, u=u, P=P, memo=share[0]), max(its, 1), True
 
 
 

@@ -188,6 +188,11 @@ class PathState:
         Slip direction of the sliding patches (unit).
     u, P : ndarray, shape (6,), (n d,)
         The last sample's solution (a patch that comes back lands where it was then).
+    memo : tuple or None
+        With a nonlinear tissue law (spring model): the series elements' split at that
+        solution, where the next sample's evaluations start (see
+        :meth:`~phri_spring.physics.friction.normal.NormalResponse.evaluate`); None: made
+        from the forces when needed.
     """
 
     cls: np.ndarray
@@ -195,10 +200,12 @@ class PathState:
     s: np.ndarray
     u: np.ndarray
     P: np.ndarray
+    memo: tuple | None = None
 
     def copy(self) -> "PathState":
+        # the memo's arrays are never written in place: shared
         return PathState(self.cls.copy(), self.z.copy(), self.s.copy(), self.u.copy(),
-                         self.P.copy())
+                         self.P.copy(), self.memo)
 
 
 def initial_state(form: InterfaceForm) -> PathState:

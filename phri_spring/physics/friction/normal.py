@@ -129,8 +129,9 @@ class NormalResponse:
 
 def block_nonlinear(form, state, r, f_tol, x_tol):
     """Rows r (m, 6) of the spring model in the state ``state`` (no sliding element) with a
-    nonlinear normal response; returns (u, P, k, u_next) as the linear blocks do: the
-    first k rows keep the state, u_next is a start for the event at row k (None if k = m).
+    nonlinear normal response; returns (u, P, k, u_next, memo) as the linear blocks do: the
+    first k rows keep the state, u_next is a start for the event at row k (None if k = m),
+    memo the series elements' split at row k - 1 (the next sample's start; None if k = 0).
 
     Each row is solved by Newton's method on its six equilibrium equations, from the
     state's displacement moved by one linearised step; a row that is not solved within
@@ -160,12 +161,13 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
         return out, k, memo, g, f
 
     g_state = Tn @ state.u + dn
-    F0, k0, memo0, _, _ = internal(state.u, normal.memo_from_force(state.P[0::3], g_state))
+    F0, k0, memo0, _, _ = internal(state.u, state.memo if state.memo is not None
+                                   else normal.memo_from_force(state.P[0::3], g_state))
     K0 = Kt + (k0 @ NN).reshape(6, 6)
     try:
         u = state.u + np.linalg.solve(K0, (r - F0).T).T
     except np.linalg.LinAlgError:
-        return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, state.u
+        return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, state.u, None
     memo = tuple(np.broadcast_to(a, (m, n)) for a in memo0)
     scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + normal.preload_scale(dn)
     tol = BLOCK_RTOL * scale
@@ -173,6 +175,7 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     act = np.arange(m)
     g = np.empty((m, n))
     f = np.empty((m, n))
+    split = [np.empty((m, n)) for _ in memo0]      # each row's memo where it was solved
     ua = u
     with np.errstate(over="ignore", invalid="ignore"):
         for _ in range(_BLOCK_STEPS + 1):
@@ -180,6 +183,8 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
             R = Fi - r[act]
             ok = np.abs(R).max(axis=1) <= tol[act]
             u[act], g[act], f[act] = ua, ga, fa
+            for whole, part in zip(split, memo):
+                whole[act] = part
             done[act[ok]] = True
             keep = ~ok
             if not keep.any():
@@ -213,7 +218,8 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     u_next = None
     if k < m:
         u_next = u[k] if np.all(np.isfinite(u[k])) else state.u
-    return u[:k], P.reshape(k, 3 * n), k, u_next
+    memo_last = tuple(a[k - 1].copy() for a in split) if k else None
+    return u[:k], P.reshape(k, 3 * n), k, u_next, memo_last
 
 
 def frictionless_unheld(form) -> np.ndarray:

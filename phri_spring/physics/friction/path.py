@@ -255,14 +255,16 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                     ub, Pb, k, guess = _block(form, maps, state, r[i:e], f_tol[i:e],
                                               x_tol[i:e])
                 else:   # a nonlinear tissue law: Newton per row, the state fixed
-                    ub, Pb, k, guess = block_nonlinear(form, state, r[i:e], f_tol[i:e],
-                                                       x_tol[i:e])
+                    ub, Pb, k, guess, memo = block_nonlinear(form, state, r[i:e],
+                                                             f_tol[i:e], x_tol[i:e])
                 full = k == e - i
                 width = min(_BLOCK, 2 * width) if full else _FIRST_BLOCK
                 if k:
                     u[i:i + k], P[i:i + k] = ub, Pb
                     cls[i:i + k] = state.cls
                     state.u, state.P = ub[-1].copy(), Pb[-1].copy()
+                    if form.normal_response is not None:
+                        state.memo = memo
                     if free.any():
                         # a free patch's tie follows the skin: where it is now
                         at = relative(form, state.u, state.P).reshape(n, d)
