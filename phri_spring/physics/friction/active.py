@@ -133,10 +133,10 @@ class StateMaps:
             self.I = np.eye(2 * K)
             self.IK = np.eye(K)
             self.I2 = np.eye(2)[None]
-            # one augmentation per patch for both tangential dofs: y = F + rho g is then
-            # along F only where the slip g is (isotropic friction: slip along the force)
-            rho = 1.0 / np.diag(form.C)[Sd].reshape(K, 2)
-            self.rho = np.repeat(rho.mean(axis=1), 2)
+            # the event solver's augmentation: with friction set, one value per patch for
+            # both tangential dofs, so that y = F + rho g lies along F only where the slip
+            # g does (isotropic friction, :class:`~.form.EventArrays`)
+            self.rho = form.event_arrays.rho[Sd]
             Dy = self.I + self.rho[:, None] * self.Mg
             self.Dy3 = Dy.reshape(K, 2, 2 * K)
             # the same as Python lists, for the scalar iteration of one sliding patch

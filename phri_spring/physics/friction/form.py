@@ -77,11 +77,6 @@ class InterfaceForm:
         return np.minimum(P[..., ::self.d], P @ self.cone_normal.T)
 
     @cached_property
-    def pre_scale(self) -> float:
-        """The preload's largest entry (+ 1e-300): with the wrench's, a sample's force scale."""
-        return float(np.abs(self.W_pre).max()) + 1e-300
-
-    @cached_property
     def elements(self) -> "ElementArrays":
         """The spring model's per-element arrays (diagonal C only), made once per form."""
         return ElementArrays(self)

@@ -39,7 +39,6 @@ class StuckMaps:
             tied[free] = True
             tied[free, 1:3] = False
         self.D = dof[tied]
-        self._delta = form.delta
         self.rel = np.flatnonzero(cls == RELEASED)
         self.free = np.flatnonzero(free) if free is not None else np.zeros(0, dtype=np.int64)
         D = self.D
@@ -63,9 +62,6 @@ class StuckMaps:
             self.Q = form.T[ni]
             self.Cs = None
         self.d_rel = form.delta[ni]
-        # the same on the full P (with forces on dofs outside D, a sliding patch's)
-        self.T_rel = form.T[ni]
-        self.C_rel = np.ascontiguousarray(form.C[ni])
         # the cone's normal force of the stuck patches from their forces P_D (the others
         # carry nothing), and the free ones' cone force (which must stay <= 0)
         self.cone = (None if form.cone_normal is None else
@@ -88,16 +84,6 @@ class StuckMaps:
         apply it once per state tried, where a product is much cheaper than a
         triangular solve's call."""
         return np.ascontiguousarray(self._G(np.eye(self.D.size)))
-
-    @cached_property
-    def delta_D(self):
-        """The preload offsets of the tied dofs."""
-        return self._delta[self.D]
-
-    def solve_tied(self, x):
-        """C_DD^-1 x for x of D's length, or (that length, k) rows: the tied compliance's
-        inverse applied."""
-        return self._G(x)
 
     def offsets(self, form, z):
         """For tie offsets z: (c, P0) with u = (r - c) @ Hinv.T, P_D = u @ GT.T + P0."""
