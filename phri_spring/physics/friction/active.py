@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from .form import RELEASED, SLIDING, STATE_RTOL, STUCK, PathState, lu_solve_or_none
-from .maps import MAPS_KEPT, stuck_maps
+from .maps import kept, stuck_maps
 
 __all__ = ["StateMaps", "active_step"]
 
@@ -40,6 +40,11 @@ _DAMP_MIN = 1.0 / 16
 #: a patch's code in a state tried: released, stuck, sliding on an open cone, sliding on a
 #: closed one (free); the first two are the path's RELEASED and STUCK
 _OPEN, _FREE = 2, 3
+
+
+def _tangential_dofs(patches, d):
+    """The two tangential dofs of each of ``patches``, in order."""
+    return (patches[:, None] * d + np.arange(1, 3)[None, :]).reshape(-1)
 
 
 class StateMaps:
@@ -66,7 +71,7 @@ class StateMaps:
         opn = np.flatnonzero(code == _OPEN)
         K = opn.size
         self.opn, self.K, self.D = opn, K, D
-        Sd = (opn[:, None] * d + np.arange(1, 3)[None, :]).reshape(-1)
+        Sd = _tangential_dofs(opn, d)
         self.Sd = Sd
         G, GT, Hinv = maps.G, maps.GT, maps.Hinv
         W = GT.T                                                  # T_D^T G (6, |D|)
@@ -99,7 +104,7 @@ class StateMaps:
         slid = np.concatenate([opn, slid[code[slid] == _FREE]])   # open first, then free
         self.free = slid[K:]
         for rows in (form.normal[maps.rel],
-                     (slid[:, None] * d + np.arange(1, 3)[None, :]).reshape(-1)):
+                     _tangential_dofs(slid, d)):
             # rel = T u + delta - C P on these rows
             blocks.append(form.T[rows] @ U - form.C[rows] @ Pm)
             consts.append(form.T[rows] @ cu + form.delta[rows] - form.C[rows] @ cP)
@@ -147,14 +152,8 @@ class StateMaps:
 
 def _state(form, cache, code):
     """The :class:`StateMaps` of state ``code`` (n,) int8, from ``cache`` or made there."""
-    key = b"active" + code.tobytes()      # apart from stuck_maps' keys
-    sm = cache.get(key)
-    if sm is None:
-        sm = StateMaps(form, cache, code)
-        if len(cache) >= MAPS_KEPT:
-            del cache[next(iter(cache))]
-        cache[key] = sm
-    return sm
+    # the key apart from stuck_maps' keys
+    return kept(cache, b"active" + code.tobytes(), lambda: StateMaps(form, cache, code))
 
 
 def _solve(form, sm, z, r, F, tol):

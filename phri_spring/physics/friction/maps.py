@@ -16,7 +16,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from .form import RELEASED, STUCK, InterfaceForm
 
-__all__ = ["StuckMaps", "stuck_maps", "MAPS_KEPT"]
+__all__ = ["StuckMaps", "stuck_maps", "kept", "MAPS_KEPT"]
 
 #: states whose maps the cache keeps: a long log meets many contact sets, each map holds
 #: a factor of the tied compliance (about 130 kB for 21 patches with rotations); the
@@ -96,19 +96,28 @@ class StuckMaps:
         return self.TD.T @ P0, P0
 
 
+def kept(cache: dict, key, make):
+    """``cache[key]``, made by ``make()`` and kept there if new (the oldest entry dropped
+    once MAPS_KEPT are kept)."""
+    value = cache.get(key)
+    if value is None:
+        value = make()
+        if len(cache) >= MAPS_KEPT:
+            del cache[next(iter(cache))]
+        cache[key] = value
+    return value
+
+
 def stuck_maps(form, cache: dict, cls, free=None):
     """The :class:`StuckMaps` of state ``cls`` (with ``free`` patches) from ``cache``, made
     and kept there if new; False where the state holds no cuff (a singular system)."""
     key = (cls == STUCK).tobytes()
     if free is not None and free.any():
         key += b"free" + free.tobytes()
-    maps = cache.get(key)
-    if maps is None:
+
+    def make():
         try:
-            maps = StuckMaps(form, cls, free)
+            return StuckMaps(form, cls, free)
         except np.linalg.LinAlgError:
-            maps = False
-        if len(cache) >= MAPS_KEPT:
-            del cache[next(iter(cache))]
-        cache[key] = maps
-    return maps
+            return False
+    return kept(cache, key, make)
