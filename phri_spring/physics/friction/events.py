@@ -89,20 +89,22 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
         force_scale += normal.preload_scale(dn)
     tol = 1e-13 * force_scale
 
+    T3 = form.T
+    kt2 = kt[:, None]
+
     def forces(u):
-        g = el.Tn @ u
-        g += dn
+        a = (T3 @ u).reshape(n, 3)          # each element's normal and two tangential rows
+        g = a[:, 0] + dn
         c = g > 0
         if normal is None:
             Pn = kn * g
             Pn[~c] = 0.0
             kN = kn
         else:
-            Pn, kN, share[0] = normal.evaluate(g, share[0])
-        trial = (el.Tt @ u).reshape(n, 2)
-        trial -= z0
-        trial *= kt[:, None]
-        tn = np.sqrt(trial[:, 0] ** 2 + trial[:, 1] ** 2)
+            Pn, kN, share[0] = normal.response(g, share[0])
+        trial = a[:, 1:3] - z0
+        trial *= kt2
+        tn = np.hypot(trial[:, 0], trial[:, 1])
         slide = tn > mu * Pn
         slide &= c
         Pt = trial
@@ -112,33 +114,38 @@ def solve_event_elements(form: InterfaceForm, r, state: PathState, u0=None):
             Pt = trial.copy()
             Pt[slide] = (mu * Pn[slide])[:, None] * dirn
         Pt[~c] = 0.0
-        R = el.TnT @ Pn + el.TtT @ Pt.ravel() - r
+        R = el.TnT @ Pn
+        R += el.TtT @ Pt.ravel()
+        R -= r
         return R, c, Pn, Pt, slide, dirn, tn, kN
 
     u = (state.u if u0 is None else u0).copy()
-    R, c, Pn, Pt, slide, dirn, tn, kN = forces(u)
-    res = np.abs(R).max()
-    its = 0
-    history = []
-    while its < _MAX_STEPS and res > tol:   # tol is round-off: Newton ends quadratically
-        if len(history) >= _STALL and res > 0.5 * history[-_STALL]:
-            # no progress: typically a load friction cannot hold (the cuff would slide
-            # along or around the arm), which has no equilibrium
-            break
-        history.append(res)
-        its += 1
-        stick = c & ~slide
-        K = ((kN * c) @ el.NN + (kt * stick) @ el.TT).reshape(6, 6)
-        if dirn is not None:
-            sl = np.flatnonzero(slide)
-            Tts = el.Tt3[sl]
-            # d(mu Pn d)/du = mu kn d Tn^T + mu Pn / |trial| kt (I - d d^T) Tt
-            proj = np.eye(2)[None] - dirn[:, :, None] * dirn[:, None, :]
-            dPt = (mu * kN[sl])[:, None, None] * dirn[:, :, None] * el.Tn[sl, None, :]
-            dPt += ((mu * Pn[sl] / tn[sl]) * kt[sl])[:, None, None] * (proj @ Tts)
-            K += np.einsum("eki,ekj->ij", Tts, dPt)
-        u, cand, res, _ = _line_search(forces, u, _newton_step(K, R), res)
-        R, c, Pn, Pt, slide, dirn, tn, kN = cand
+    # one errstate for the whole iteration: a tissue law may overflow at an absurd load
+    # (the sample then fails its checks)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        R, c, Pn, Pt, slide, dirn, tn, kN = forces(u)
+        res = np.abs(R).max()
+        its = 0
+        history = []
+        while its < _MAX_STEPS and res > tol:   # tol is round-off: Newton ends quadratically
+            if len(history) >= _STALL and res > 0.5 * history[-_STALL]:
+                # no progress: typically a load friction cannot hold (the cuff would slide
+                # along or around the arm), which has no equilibrium
+                break
+            history.append(res)
+            its += 1
+            stick = c & ~slide
+            K = ((kN * c) @ el.NN + (kt * stick) @ el.TT).reshape(6, 6)
+            if dirn is not None:
+                sl = np.flatnonzero(slide)
+                Tts = el.Tt3[sl]
+                # d(mu Pn d)/du = mu kn d Tn^T + mu Pn / |trial| kt (I - d d^T) Tt
+                proj = np.eye(2)[None] - dirn[:, :, None] * dirn[:, None, :]
+                dPt = (mu * kN[sl])[:, None, None] * dirn[:, :, None] * el.Tn[sl, None, :]
+                dPt += ((mu * Pn[sl] / tn[sl]) * kt[sl])[:, None, None] * (proj @ Tts)
+                K += Tts.reshape(-1, 6).T @ dPt.reshape(-1, 6)
+            u, cand, res, _ = _line_search(forces, u, _newton_step(K, R), res)
+            R, c, Pn, Pt, slide, dirn, tn, kN = cand
     ok = res <= tol * 10 and np.all(np.isfinite(u))
     if not ok:
         return state.u, state.P, state, max(its, 1), False

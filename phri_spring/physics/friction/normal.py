@@ -35,6 +35,8 @@ _SPLIT_STEPS = 8
 _SPLIT_RTOL = 1e-9
 #: Newton steps of a block's rows before the rows left are handed to the event solver
 _BLOCK_STEPS = 25
+#: Newton steps after which a block ends before its first row not yet solved
+_SLOW_AFTER = 4
 #: rows up to this many are solved by LAPACK's 6x6 solves, more by the vectorised Cholesky
 _SMALL_BATCH = 64
 #: a block row is solved when its equilibrium residual is below this share of its forces
@@ -72,59 +74,68 @@ class NormalResponse:
 
     def memo_from_force(self, f, g):
         """A start for :meth:`evaluate` near compressions g [m] where the elements carry f [N]."""
-        dt = self.share_from_force(f)
-        _, Ft = self.law.force_tangent(dt)
-        return g, dt, 1.0 / (1.0 + Ft * self.c)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            dt = self.share_from_force(f)
+            _, Ft = self.law.force_tangent(dt)
+            s = 1.0 / (1.0 + Ft * self.c)
+            return np.maximum(g, 0.0), dt, s, Ft * s * (np.asarray(g) > 0)
 
     def evaluate(self, g, memo=None):
         """(f, k, memo) at total compressions g (..., n) [m]: the force [N] (0 where g <= 0),
         the series tangent [N/m] (0 where g <= 0) and what the next call starts from
-        (compressions, tissue shares and d d_t / d g there). ``memo`` is a previous call's
-        (of the same shape), or None."""
-        g = np.asarray(g, dtype=float)
+        (compressions, tissue shares, d d_t / d g and the tangent there). ``memo`` is a
+        previous call's (of the same shape), or None."""
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return self.response(np.asarray(g, dtype=float), memo)
+
+    def response(self, g, memo=None):
+        """:meth:`evaluate` for the solvers' inner loops: g a float array, and no
+        ``np.errstate`` of its own (they hold one around the whole iteration)."""
         gp = np.maximum(g, 0.0)
         law, c = self.law, self.c
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            if self.rigid_cuff:
-                dt = gp
+        if self.rigid_cuff:
+            dt = gp
+            F, Ft = law.force_tangent(dt)
+        else:
+            if memo is None:
+                dt = gp / (1.0 + law.k0 * c)
+            else:   # the last share moved along the split's tangent
+                dt = gp - memo[0]
+                dt *= memo[2]
+                dt += memo[1]
+                np.maximum(dt, 0.0, out=dt)
+                np.minimum(dt, gp, out=dt)
+            # h(d_t) = d_t + F(d_t) c - g increases with d_t: Newton on it, kept in
+            # [0, g]. It converges quadratically, so once a step is below _SPLIT_RTOL
+            # of the compression the error left is far below round-off, and the force
+            # moves by its tangent times that step
+            small = _SPLIT_RTOL * gp.max()
+            F, Ft = law.force_tangent(dt)
+            for _ in range(_SPLIT_STEPS):
+                step = F * c
+                step += dt
+                step -= gp
+                step /= 1.0 + Ft * c
+                new = dt - step
+                np.maximum(new, 0.0, out=new)
+                np.minimum(new, gp, out=new)
+                if not np.abs(step).max() > small:
+                    F = F + Ft * (new - dt)
+                    dt = new
+                    break
+                dt = new
                 F, Ft = law.force_tangent(dt)
             else:
-                if memo is None:
-                    dt = gp / (1.0 + law.k0 * c)
-                else:   # the last share moved along the split's tangent
-                    g0, dt0, s0 = memo
-                    dt = dt0 + (gp - np.maximum(g0, 0.0)) * s0
-                    np.maximum(dt, 0.0, out=dt)
-                    np.minimum(dt, gp, out=dt)
-                # h(d_t) = d_t + F(d_t) c - g increases with d_t: Newton on it, kept in
-                # [0, g]. It converges quadratically, so once a step is below _SPLIT_RTOL
-                # of the compression the error left is far below round-off, and the force
-                # moves by its tangent times that step
-                small = _SPLIT_RTOL * gp.max()
+                dt = law.series_share(gp, c)
                 F, Ft = law.force_tangent(dt)
-                for _ in range(_SPLIT_STEPS):
-                    step = dt + F * c
-                    step -= gp
-                    step /= 1.0 + Ft * c
-                    new = dt - step
-                    np.maximum(new, 0.0, out=new)
-                    np.minimum(new, gp, out=new)
-                    if not np.abs(step).max() > small:
-                        F = F + Ft * (new - dt)
-                        dt = new
-                        break
-                    dt = new
-                    F, Ft = law.force_tangent(dt)
-                else:
-                    dt = law.series_share(gp, c)
-                    F, Ft = law.force_tangent(dt)
-            den = 1.0 + Ft * c
-            k = Ft / den
-        off = g <= 0
-        if off.any():
-            F = np.where(off, 0.0, F)
-            k = np.where(off, 0.0, k)
-        return F, k, (g, dt, 1.0 / den)
+        s = Ft * c
+        s += 1.0
+        np.divide(1.0, s, out=s)
+        k = Ft * s
+        on = g > 0
+        F = np.where(on, F, 0.0)
+        k *= on
+        return F, k, (gp, dt, s, k)
 
 
 def block_nonlinear(form, state, r, f_tol, x_tol):
@@ -139,7 +150,6 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     """
     el, normal = form.elements, form.normal_response
     n, mu = form.n, form.mu
-    m = len(r)
     stuck = state.cls == STUCK
     rel = state.cls == RELEASED
     kt_s = el.kt * stuck
@@ -148,58 +158,59 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     z = state.z[:, 1:3]
     ct = el.TtT @ (kt_s[:, None] * z).ravel()
     Tn, TnT, dn, NN = el.Tn, el.TnT, el.dn, el.NN
-
-    def internal(u, memo):
-        g = u @ TnT
-        g += dn
-        f, k, memo = normal.evaluate(g, memo)
-        f *= stuck
-        k *= stuck
-        out = u @ Kt.T
-        out += f @ Tn
-        out -= ct
-        return out, k, memo, g, f
-
-    g_state = Tn @ state.u + dn
-    F0, k0, memo0, _, _ = internal(state.u, state.memo if state.memo is not None
-                                   else normal.memo_from_force(state.P[0::3], g_state))
-    K0 = Kt + (k0 @ NN).reshape(6, 6)
-    try:
-        u = state.u + np.linalg.solve(K0, (r - F0).T).T
-    except np.linalg.LinAlgError:
-        return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, state.u, None
-    memo = tuple(np.broadcast_to(a, (m, n)) for a in memo0)
-    scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + normal.preload_scale(dn)
-    tol = BLOCK_RTOL * scale
-    done = np.zeros(m, dtype=bool)
-    act = np.arange(m)
-    g = np.empty((m, n))
-    f = np.empty((m, n))
-    split = [np.empty((m, n)) for _ in memo0]      # each row's memo where it was solved
-    ua = u
-    with np.errstate(over="ignore", invalid="ignore"):
-        for _ in range(_BLOCK_STEPS + 1):
-            Fi, k, memo, ga, fa = internal(ua, memo)
-            R = Fi - r[act]
-            ok = np.abs(R).max(axis=1) <= tol[act]
-            u[act], g[act], f[act] = ua, ga, fa
-            for whole, part in zip(split, memo):
-                whole[act] = part
-            done[act[ok]] = True
-            keep = ~ok
-            if not keep.any():
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        memo = state.memo
+        f0 = state.P[0::3]
+        if memo is None:    # a path's start: its forces are the strap's, not yet solved
+            g0 = Tn @ state.u + dn
+            f0, _, memo = normal.response(g0, normal.memo_from_force(f0, g0))
+        # the state's internal force and tangent: its forces balance the wrench it was
+        # reached at, and the memo holds the tangent there (a first step needs no more)
+        F0 = state.u @ Kt.T
+        F0 += (f0 * stuck) @ Tn
+        F0 -= ct
+        K0 = Kt + ((memo[3] * stuck) @ NN).reshape(6, 6)
+        try:
+            u = state.u + np.linalg.solve(K0, (r - F0).T).T
+        except np.linalg.LinAlgError:
+            return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, state.u, None
+        scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + normal.preload_scale(dn)
+        tol = BLOCK_RTOL * scale
+        m = len(r)
+        done = np.zeros(m, dtype=bool)
+        # every row iterates until all are solved (a solved row's step is held at 0): at a
+        # block's few rows one array operation costs what it costs, and rows taken out
+        # and put back cost more than the rows themselves
+        for its in range(_BLOCK_STEPS + 1):
+            g = u @ TnT
+            g += dn
+            f, k, memo = normal.response(g, memo)
+            f = f * stuck
+            R = u @ Kt.T
+            R += f @ Tn
+            R -= ct
+            R -= r
+            done |= np.abs(R).max(axis=1) <= tol
+            if done.all():
                 break
-            act, ua, R, k = act[keep], ua[keep], R[keep], k[keep]
-            memo = tuple(a[keep] for a in memo)
-            H = (k @ NN).reshape(-1, 6, 6) + Kt
-            if len(act) <= _SMALL_BATCH:
+            if its >= _SLOW_AFTER and done[0]:
+                # the rows before the first unsolved one are solved: the block ends there
+                # (a row this slow is usually one where the state changes)
+                m = int(np.argmin(done))
+                break
+            H = ((k * stuck) @ NN).reshape(-1, 6, 6)
+            H += Kt
+            if m <= _SMALL_BATCH:
                 try:
-                    ua = ua - np.linalg.solve(H, R[:, :, None])[:, :, 0]
+                    step = np.linalg.solve(H, R[:, :, None])[:, :, 0]
                 except np.linalg.LinAlgError:
-                    ua = ua - spd_solve_batched(H.reshape(-1, 36).T, R)
+                    step = spd_solve_batched(H.reshape(-1, 36).T, R)
             else:
-                ua = ua - spd_solve_batched(H.reshape(-1, 36).T, R)
+                step = spd_solve_batched(H.reshape(-1, 36).T, R)
+            step[done] = 0.0
+            u = u - step
     # the state's checks on the solved rows (a row left unsolved, or not finite, fails)
+    u, g, f, done, x_tol, f_tol = u[:m], g[:m], f[:m], done[:m], x_tol[:m], f_tol[:m]
     Pt = (u @ el.TtT).reshape(m, n, 2) - z
     Pt *= kt_s[:, None]
     good = done
@@ -216,9 +227,9 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     P[:, :, 0] = f[:k]
     P[:, :, 1:3] = Pt[:k]
     u_next = None
-    if k < m:
-        u_next = u[k] if np.all(np.isfinite(u[k])) else state.u
-    memo_last = tuple(a[k - 1].copy() for a in split) if k else None
+    if k < len(r):
+        u_next = u[k] if k < m and np.all(np.isfinite(u[k])) else state.u
+    memo_last = tuple(a[k - 1].copy() for a in memo) if k else None
     return u[:k], P.reshape(k, 3 * n), k, u_next, memo_last
 
 

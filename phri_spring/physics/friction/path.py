@@ -185,6 +185,10 @@ def _stuck_transition(form, cache, state, r, f_tol, x_tol):
     return None
 
 
+#: the spring model: after a sample where elements slid, they are first tried stuck again
+#: (as a block); False: the event solver at once
+_REGRIP = True
+
 #: the coupled model's events by active sets first (:mod:`.active`); False: the
 #: semismooth Newton alone (the reference the tests compare against)
 _ACTIVE_SETS = True
@@ -244,6 +248,15 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             i += 1
             continue
         free = _free_sliders(state)
+        slid = None
+        if free is None and form.diagonal and _REGRIP:
+            # the spring model's sliding elements usually grip again at the next sample:
+            # that state (every element that slid stuck where its slip left it) is tried
+            # as a block first, its checks (pressing, inside the cone) deciding
+            slid = state
+            state = state.copy()
+            state.cls[state.cls == SLIDING] = STUCK
+            free = np.zeros(n, dtype=bool)
         if free is not None and (state.cls == STUCK).any():
             maps = (True if form.normal_response is not None
                     else stuck_maps(form, cache, state.cls, free))
@@ -271,12 +284,17 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                         state.z[free, 1:3] = at[free, 1:3]
                     r_state = r[i + k - 1]
                     i += k
+                    slid = None
                     if i >= m:
                         break
                     if full and form.normal_response is not None:
                         # the whole block kept the state: the next one may too (a nonlinear
                         # block costs a Newton iteration, an event several)
                         continue
+        if slid is not None:
+            # they did not grip: an event from the sliding state, started where the
+            # block's first row ended (closer than the last sample's answer)
+            state = slid
         event = solve_event_elements if form.diagonal else solve_event_coupled
         # no equilibrium at all: without friction only the normal forces (and a patch's
         # tied rotations, pure moments) hold the cuff, and they cannot make this wrench

@@ -170,6 +170,8 @@ def test_blocks_and_events_agree_with_the_exponential_law():
     r = W + model.W_pre
     u, P, cls, solves, conv, _ = friction.solve_path(form, r)
     assert conv.all() and (solves == 0).any() and (solves > 0).any()
+    # elements that slid gripping again at the next sample, solved in a block (12.3)
+    assert np.any((cls[:-1] == friction.SLIDING).any(axis=1) & (solves[1:] == 0))
     state = friction.initial_state(form)
     for i in range(len(r)):
         _, Pi, state, _, ok = friction.solve_event_elements(form, r[i], state)
