@@ -188,6 +188,9 @@ def _stuck_transition(form, cache, state, r, f_tol, x_tol):
 #: the spring model: after a sample where elements slid, they are first tried stuck again
 #: (as a block); False: the event solver at once
 _REGRIP = True
+#: the coupled model without a friction coefficient: a sample the semismooth Newton does
+#: not answer goes to the active sets before its increments; False: the increments alone
+_RESCUE = True
 
 #: the coupled model's events by active sets first (:mod:`.active`); False: the
 #: semismooth Newton alone (the reference the tests compare against)
@@ -314,6 +317,13 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                 ui, Pi, new, its, ok = hop
             else:
                 ui, Pi, new, its, ok = event(form, r[i], state, guess)
+        if not ok and not hopeless and _RESCUE and not form.diagonal and not active:
+            # the default's lift-off cone: where the semismooth Newton finds no state (it
+            # cycles between two, a patch on the edge of its cone), the active sets often do
+            hop = active_step(form, cache, state, r[i], f_tol[i], x_tol[i])
+            if hop is not None and hop[4]:
+                ui, Pi, new, more, ok = hop
+                its += more
         if not ok and not hopeless:
             # the semismooth Newton can cycle between two sets where a patch sits on the
             # edge of its cone or of contact: the wrench since the last consistent state is

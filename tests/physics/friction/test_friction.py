@@ -15,6 +15,8 @@ References are independent of the solver:
 - mirror symmetry: a mirrored loading path gives mirrored forces.
 """
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -167,6 +169,8 @@ def test_blocks_and_events_agree_and_chunks_carry_the_path():
     r = W + model.W_pre
     u, P, cls, solves, conv, _ = friction.solve_path(form, r)
     assert conv.all() and (solves == 0).any() and (solves > 0).any()   # blocks and events
+    # elements that slid gripping again at the next sample, solved in a block (12.3)
+    assert np.any((cls[:-1] == friction.SLIDING).any(axis=1) & (solves[1:] == 0))
     # the plain path: every sample by the return-mapping Newton method
     state = friction.initial_state(form)
     for i in range(len(r)):
@@ -305,6 +309,7 @@ def test_a_sample_the_event_solver_cannot_reach_is_reached_in_smaller_increments
         return inner(form, r, state, u0)
 
     monkeypatch.setattr(friction, "_ACTIVE_SETS", False)   # the semismooth Newton's own
+    monkeypatch.setattr(friction, "_RESCUE", False)        # increments, not active sets
     monkeypatch.setattr(friction, "solve_event_coupled", small_steps_only)
     sol = solve(model, W)
     assert len(refused) > 50
@@ -312,3 +317,37 @@ def test_a_sample_the_event_solver_cannot_reach_is_reached_in_smaller_increments
     check_friction_laws(model, W, sol, MU)
     np.testing.assert_allclose(sol.forces, ref.forces, rtol=0,
                                atol=1e-3 * np.abs(ref.forces).max())
+
+
+def test_a_sample_the_semismooth_newton_misses_is_taken_by_the_active_sets(monkeypatch):
+    """With the default's lift-off cone (no friction coefficient), an event the semismooth
+    Newton does not solve goes to the active sets (docs/model.md 12.3 step 4) before any
+    increments. With an event solver that fails every third event, every sample still
+    converges and obeys the laws; the answers are the full iteration's where the two
+    reach the same state (the rescued samples' forces to 1e-9 of the force scale)."""
+    model, W = _coupled_push_cycle()
+    model = dataclasses.replace(model, friction_coefficient=None)
+    ref = solve(model, W)
+    inner = friction.solve_event_coupled
+    calls, rescued = [], []
+    active = friction.active_step
+
+    def every_third_fails(form, r, state, u0=None):
+        calls.append(1)
+        if len(calls) % 3 == 0:
+            return state.u, state.P, state, 1, False
+        return inner(form, r, state, u0)
+
+    def spy(*args):
+        out = active(*args)
+        rescued.append(out is not None and out[4])
+        return out
+
+    monkeypatch.setattr(friction, "solve_event_coupled", every_third_fails)
+    monkeypatch.setattr(friction, "active_step", spy)
+    sol = solve(model, W)
+    assert len(rescued) >= 3 and all(rescued)
+    assert sol.converged.all() and ref.converged.all()
+    check_friction_laws(model, W, sol, model.interface_mu)
+    np.testing.assert_allclose(sol.forces, ref.forces, rtol=0,
+                               atol=1e-9 * np.abs(ref.forces).max())

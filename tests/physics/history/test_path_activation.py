@@ -129,13 +129,24 @@ def test_a_stiffer_layer_under_a_rigid_cuff_carries_the_same_forces(a, c, seed):
     base = _model(k_c=np.inf, strap="handles")
     act = PathActivation(base, c).solve_log(W, None, np.full(len(W), a))
     ref = solve(base, W)
-    ok = ref.converged
-    np.testing.assert_array_equal(act.converged, ok)
+    # Coulomb friction's answer need not be unique: where a patch sits on the edge of its
+    # cone, two states can both satisfy the law, and which one the solver takes turns on
+    # round-off, which the scaling changes (seed 1332, a = 0.5, c = 2: sample 54 ends with
+    # patch 1 sliding in one and released in the other, both checked below). The two paths
+    # are compared up to the first sample where their states part; each is checked
+    # against the law at every sample.
+    same = np.all(act.contact == ref.contact, axis=1) & (act.converged == ref.converged)
+    upto = int(np.argmin(same)) if not same.all() else len(W)
+    assert upto >= 20 or upto == len(W) or not ref.converged[upto] or not act.converged[upto]
+    ok = ref.converged[:upto]
     # 1e-6: a sample where a patch slides takes its slip direction from the event's Newton
     # iterate, accepted within 1e3 STATE_RTOL (1e-9) of the wrench (friction/events.py), and
     # the path carries it on; seed 151 (a=1, c=2) differs by 1.2e-7 of the peak there
-    np.testing.assert_allclose(act.forces[ok], ref.forces[ok], rtol=0,
-                               atol=1e-6 * (np.abs(ref.forces[ok]).max() + 1.0))
+    np.testing.assert_allclose(act.forces[:upto][ok], ref.forces[:upto][ok], rtol=0,
+                               atol=1e-6 * (np.abs(ref.forces[:upto][ok]).max(initial=0) + 1.0))
+    for sol in (act, ref):
+        assert sol.converged.mean() >= 0.9
+        check_friction_laws(base, W, sol, base.interface_mu)
 
 
 def test_a_contracted_muscle_under_the_hoop_presses_harder():
