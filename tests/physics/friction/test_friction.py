@@ -161,7 +161,8 @@ def test_laws_hold_on_random_paths(seed, mu, tension, load):
     check_friction_laws(model, W, sol, mu)
 
 
-def test_blocks_and_events_agree_and_chunks_carry_the_path():
+def test_blocks_and_events_agree_and_chunks_carry_the_path(monkeypatch):
+    monkeypatch.setattr(friction, "_COMPILED", False)   # the numpy path's blocks and events
     model = _harmony()
     _, W = smooth_random_log(2000, seed=8)
     W = W / np.abs(W[:, :3]).max() * 50.0 * np.array([0.3, 1, 1, 0.01, 0.02, 0.02])

@@ -162,7 +162,8 @@ def test_large_mu_without_lift_off_is_the_bonded_nonlinear_model(arm_cuff):
                                atol=1e-8 * np.abs(b.forces).max())
 
 
-def test_blocks_and_events_agree_with_the_exponential_law():
+def test_blocks_and_events_agree_with_the_exponential_law(monkeypatch):
+    monkeypatch.setattr(friction, "_COMPILED", False)   # the numpy path's blocks and events
     model = _harmony_exp(0.5)
     _, W = smooth_random_log(600, seed=8)
     W = W / np.abs(W[:, :3]).max() * 50.0 * np.array([0.3, 1, 1, 0.01, 0.02, 0.02])

@@ -1,0 +1,347 @@
+"""The spring arms' friction path, compiled (numba, the ``fast`` extra).
+
+With friction on the spring model every element is independent given the cuff's
+displacement u, so a sample is six equations in u: the semismooth Newton method of
+:func:`~phri_spring.physics.friction.events.solve_event_elements` (each element's return
+mapping, the consistent tangent, a backtracking line search). This module writes that
+method in scalar code that numba compiles, and solves a log sample after sample with it,
+each sample from the one before: compiled, a sample costs a few microseconds, which the
+numpy path (affine or Newton blocks between the events, docs/model.md 12.3) reaches only
+where nothing slides for long stretches. It covers the linear springs and the
+exponential law (the human preset's) with or without a cuff spring; any other law, or an
+install without numba, takes the numpy path. A sample the compiled loop does not settle
+(no equilibrium, a singular tangent, a stalled iteration) is handed back, and the numpy
+path solves it with all its fallbacks, so both paths flag the same samples.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .states import RELEASED, SLIDING, STUCK
+
+try:
+    from numba import njit as _njit
+except ImportError:  # the same loop, interpreted (the tests compare it with the compiled)
+    NUMBA = False
+
+    def _jit(fn):
+        return fn
+
+    def _entry(fn):
+        return fn
+else:
+    NUMBA = True
+
+    def _jit(fn):
+        return _njit(inline="always", error_model="numpy")(fn)
+
+    def _entry(fn):
+        # cache: compiled once per install (next to the module, or numba's user cache)
+        return _njit(cache=True, nogil=True, error_model="numpy")(fn)
+
+__all__ = ["NUMBA", "supports", "law_arrays", "solve_elements"]
+
+#: as the event solver (friction/events.py): most Newton steps, steps without halving the
+#: residual before a sample is handed back, a step this long means a mode without stiffness
+_MAX_STEPS = 60
+_STALL = 6
+_HUGE_STEP = 0.1
+#: a split step this small against the compression ends the series element's iteration
+_SPLIT_RTOL = 1e-13
+
+
+def supports(form) -> bool:
+    """Whether the compiled loop covers this form: the spring model (diagonal), mu > 0,
+    linear springs or the exponential law."""
+    if not (form.diagonal and form.mu > 0 and np.isfinite(form.mu)):
+        return False
+    normal = form.normal_response
+    return normal is None or getattr(normal.law, "name", None) == "exponential"
+
+
+def law_arrays(form):
+    """(law_exp, k0, beta, c) (n,) each: the normal springs' law for the compiled loop
+    (the linear springs: k0 = 1/C_nn, beta = 0, c = 0)."""
+    n = form.n
+    normal = form.normal_response
+    if normal is None:
+        kn = 1.0 / np.diag(form.C).reshape(n, 3)[:, 0]
+        return False, np.ascontiguousarray(kn), np.zeros(n), np.zeros(n)
+    law = normal.law
+    k0 = np.broadcast_to(np.asarray(law.k0, dtype=float), (n,)).copy()
+    beta = np.broadcast_to(np.asarray(law.params["stiffening"], dtype=float), (n,)).copy()
+    return True, k0, beta, np.ascontiguousarray(normal.c, dtype=float)
+
+
+@_jit
+def _tissue(d, k0, beta):
+    """(F, F') of the exponential law at d >= 0."""
+    if beta > 0.0:
+        em = math.expm1(beta * d)
+        return k0 / beta * em, k0 * (1.0 + em)
+    return k0 * d, k0
+
+
+@_jit
+def _normal(g, d0, law_exp, k0, beta, c):
+    """(force, series tangent, tissue share) of one element at total compression g > 0,
+    its split warm-started at d0."""
+    if not law_exp:
+        return k0 * g, k0, g
+    if c == 0.0:
+        F, Ft = _tissue(g, k0, beta)
+        return F, Ft, g
+    # d + F(d) c = g on [0, g]: Newton, kept inside the bracket it narrows
+    lo = 0.0
+    hi = g
+    d = d0
+    if not (0.0 <= d <= g):
+        d = g / (1.0 + k0 * c)
+    F, Ft = _tissue(d, k0, beta)
+    for _ in range(100):
+        phi = d + F * c - g
+        if phi > 0.0:
+            hi = d
+        else:
+            lo = d
+        step = phi / (1.0 + Ft * c)
+        nd = d - step
+        if not (lo <= nd <= hi):
+            nd = 0.5 * (lo + hi)
+        if abs(nd - d) <= _SPLIT_RTOL * g:
+            F = F + Ft * (nd - d)
+            d = nd
+            break
+        d = nd
+        F, Ft = _tissue(d, k0, beta)
+    return F, Ft / (1.0 + Ft * c), d
+
+
+@_jit
+def _evaluate(u, r, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
+              Pn, kN, Pt, tn, dr, cls, R):
+    """Each element's return mapping at u (into Pn, kN, Pt, tn = |trial force|, dr = its
+    direction where sliding, cls; the splits dsh warm start and are updated) and the
+    residual R = sum forces - r; returns max |R|."""
+    n = Tn.shape[0]
+    for k in range(6):
+        R[k] = -r[k]
+    for e in range(n):
+        g = dn[e]
+        a0 = -z0[e, 0]
+        a1 = -z0[e, 1]
+        for k in range(6):
+            g += Tn[e, k] * u[k]
+            a0 += Tt[e, 0, k] * u[k]
+            a1 += Tt[e, 1, k] * u[k]
+        if g > 0.0:
+            f, kk, d = _normal(g, dsh[e], law_exp, k0[e], beta[e], c[e])
+            dsh[e] = d
+            t0 = kt[e] * a0
+            t1 = kt[e] * a1
+            tt = math.sqrt(t0 * t0 + t1 * t1)
+            tn[e] = tt
+            if tt > mu * f:
+                cls[e] = SLIDING
+                dr[e, 0] = t0 / tt
+                dr[e, 1] = t1 / tt
+                t0 = mu * f * dr[e, 0]
+                t1 = mu * f * dr[e, 1]
+            else:
+                cls[e] = STUCK
+        else:
+            f = 0.0
+            kk = 0.0
+            t0 = 0.0
+            t1 = 0.0
+            tn[e] = 0.0
+            dsh[e] = 0.0
+            cls[e] = RELEASED
+        Pn[e] = f
+        kN[e] = kk
+        Pt[e, 0] = t0
+        Pt[e, 1] = t1
+        for k in range(6):
+            R[k] += Tn[e, k] * f + Tt[e, 0, k] * t0 + Tt[e, 1, k] * t1
+    res = 0.0
+    for k in range(6):
+        v = abs(R[k])
+        if v != v:
+            return np.inf
+        if v > res:
+            res = v
+    return res
+
+
+@_jit
+def _tangent(Tn, Tt, kt, mu, Pn, kN, tn, dr, cls, K):
+    """The consistent tangent d R / d u (6, 6) of the state at the last evaluation."""
+    n = Tn.shape[0]
+    for i in range(6):
+        for j in range(6):
+            K[i, j] = 0.0
+    for e in range(n):
+        if cls[e] == RELEASED:
+            continue
+        kn = kN[e]
+        for i in range(6):
+            for j in range(6):
+                K[i, j] += kn * Tn[e, i] * Tn[e, j]
+        if cls[e] == STUCK:
+            ke = kt[e]
+            for i in range(6):
+                for j in range(6):
+                    K[i, j] += ke * (Tt[e, 0, i] * Tt[e, 0, j] + Tt[e, 1, i] * Tt[e, 1, j])
+        else:
+            # d(mu Pn d)/du = mu kN d Tn^T + mu Pn / |trial| kt (I - d d^T) Tt
+            d0 = dr[e, 0]
+            d1 = dr[e, 1]
+            a = mu * kn
+            b = mu * Pn[e] / tn[e] * kt[e]
+            for j in range(6):
+                pd = d0 * Tt[e, 0, j] + d1 * Tt[e, 1, j]
+                r0 = a * d0 * Tn[e, j] + b * (Tt[e, 0, j] - d0 * pd)
+                r1 = a * d1 * Tn[e, j] + b * (Tt[e, 1, j] - d1 * pd)
+                for i in range(6):
+                    K[i, j] += Tt[e, 0, i] * r0 + Tt[e, 1, i] * r1
+
+
+@_jit
+def _solve6(K, R, du):
+    """du = -K^-1 R by Gaussian elimination with partial pivoting (K is overwritten);
+    False where K is singular or the step is not finite or longer than _HUGE_STEP (the
+    numpy path then takes the sample: it has the least-squares step)."""
+    b = np.empty(6)
+    for i in range(6):
+        b[i] = -R[i]
+    for col in range(6):
+        p = col
+        best = abs(K[col, col])
+        for row in range(col + 1, 6):
+            if abs(K[row, col]) > best:
+                best = abs(K[row, col])
+                p = row
+        if not best > 0.0:
+            return False
+        if p != col:
+            for k in range(6):
+                tmp = K[col, k]
+                K[col, k] = K[p, k]
+                K[p, k] = tmp
+            tmp = b[col]
+            b[col] = b[p]
+            b[p] = tmp
+        for row in range(col + 1, 6):
+            fct = K[row, col] / K[col, col]
+            if fct != 0.0:
+                for k in range(col, 6):
+                    K[row, k] -= fct * K[col, k]
+                b[row] -= fct * b[col]
+    for row in range(5, -1, -1):
+        acc = b[row]
+        for k in range(row + 1, 6):
+            acc -= K[row, k] * du[k]
+        du[row] = acc / K[row, row]
+    for k in range(6):
+        if not abs(du[k]) < _HUGE_STEP:
+            return False
+    return True
+
+
+@_entry
+def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
+                   cls, z, s, u, P, dsh, out_u, out_P, out_cls, out_solves, start):
+    """Solve samples r (m, 6) in order from row ``start``; the state (cls (n,), z (n, 2)
+    the ties' offsets, s (n, 2) slip directions, u (6,), P (n, 3), dsh (n,) the tissue
+    shares) is updated in place after every sample. ``scale`` (m,): each sample's force
+    scale (its tolerance is 1e-13 of it). Returns the first row not settled (m if all
+    were): the state is then the one before it."""
+    m = r.shape[0]
+    n = Tn.shape[0]
+    z0 = np.empty((n, 2))
+    Pn = np.empty(n)
+    kN = np.empty(n)
+    Pt = np.empty((n, 2))
+    tn = np.empty(n)
+    dr = np.empty((n, 2))
+    cc = np.empty(n, dtype=np.int8)
+    R = np.empty(6)
+    K = np.empty((6, 6))
+    du = np.empty(6)
+    ut = np.empty(6)
+    uc = np.empty(6)
+    hist = np.empty(_MAX_STEPS + 1)
+    for i in range(start, m):
+        ri = r[i]
+        tol = 1e-13 * scale[i]
+        # a released element lands where its skin was at the last sample
+        for e in range(n):
+            if cls[e] == RELEASED:
+                for a in range(2):
+                    acc = 0.0
+                    for k in range(6):
+                        acc += Tt[e, a, k] * u[k]
+                    z0[e, a] = acc
+            else:
+                z0[e, 0] = z[e, 0]
+                z0[e, 1] = z[e, 1]
+        for k in range(6):
+            uc[k] = u[k]
+        res = _evaluate(uc, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
+                        Pn, kN, Pt, tn, dr, cc, R)
+        its = 0
+        ok = True
+        while its < _MAX_STEPS and res > tol:
+            if its >= _STALL and res > 0.5 * hist[its - _STALL]:
+                ok = False
+                break
+            hist[its] = res
+            its += 1
+            _tangent(Tn, Tt, kt, mu, Pn, kN, tn, dr, cc, K)
+            if not _solve6(K, R, du):
+                ok = False
+                break
+            step = 1.0
+            while True:
+                for k in range(6):
+                    ut[k] = uc[k] + step * du[k]
+                new = _evaluate(ut, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
+                                Pn, kN, Pt, tn, dr, cc, R)
+                if new < res or step < 1e-4:
+                    break
+                step *= 0.5
+            for k in range(6):
+                uc[k] = ut[k]
+            res = new
+        if not ok or not res <= tol * 10:
+            return i
+        for k in range(6):
+            if not math.isfinite(uc[k]):
+                return i
+        for e in range(n):
+            cls[e] = cc[e]
+            if cc[e] == SLIDING:
+                for a in range(2):
+                    acc = 0.0
+                    for k in range(6):
+                        acc += Tt[e, a, k] * uc[k]
+                    z[e, a] = acc - Pt[e, a] / kt[e]
+                    s[e, a] = dr[e, a]
+            else:
+                z[e, 0] = z0[e, 0]
+                z[e, 1] = z0[e, 1]
+            P[e, 0] = Pn[e]
+            P[e, 1] = Pt[e, 0]
+            P[e, 2] = Pt[e, 1]
+            out_cls[i, e] = cc[e]
+            out_P[i, 3 * e] = Pn[e]
+            out_P[i, 3 * e + 1] = Pt[e, 0]
+            out_P[i, 3 * e + 2] = Pt[e, 1]
+        for k in range(6):
+            u[k] = uc[k]
+            out_u[i, k] = uc[k]
+        out_solves[i] = its if its > 1 else 1
+    return m
