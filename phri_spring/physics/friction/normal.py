@@ -37,6 +37,10 @@ _SPLIT_RTOL = 1e-9
 _BLOCK_STEPS = 25
 #: Newton steps after which a block ends before its first row not yet solved
 _SLOW_AFTER = 4
+#: how far past its cone a doubtful element's linearised first step must go for the
+#: block to be skipped (the step's error is second order in the load step; a wrong call
+#: only costs time: the event solver then takes the sample)
+_PROBE_MARGIN = 0.05
 #: rows up to this many are solved by LAPACK's 6x6 solves, more by the vectorised Cholesky
 _SMALL_BATCH = 64
 #: a block row is solved when its equilibrium residual is below this share of its forces
@@ -138,7 +142,7 @@ class NormalResponse:
         return F, k, (gp, dt, s, k)
 
 
-def block_nonlinear(form, state, r, f_tol, x_tol):
+def block_nonlinear(form, state, r, f_tol, x_tol, probe=None):
     """Rows r (m, 6) of the spring model in the state ``state`` (no sliding element) with a
     nonlinear normal response; returns (u, P, k, u_next, memo) as the linear blocks do: the
     first k rows keep the state, u_next is a start for the event at row k (None if k = m),
@@ -147,6 +151,10 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
     Each row is solved by Newton's method on its six equilibrium equations, from the
     state's displacement moved by one linearised step; a row that is not solved within
     _BLOCK_STEPS, or whose answer leaves the state, ends the block there.
+
+    ``probe`` (n,) bool: elements whose grip is in doubt (they slid at the last sample).
+    Where the first row's linearised step already takes one of them past its cone by more
+    than _PROBE_MARGIN, the block is not solved: (k = 0, u_next = that step's u).
     """
     el, normal = form.elements, form.normal_response
     n, mu = form.n, form.mu
@@ -174,6 +182,16 @@ def block_nonlinear(form, state, r, f_tol, x_tol):
             u = state.u + np.linalg.solve(K0, (r - F0).T).T
         except np.linalg.LinAlgError:
             return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, state.u, None
+        if probe is not None:
+            # the first row's tie forces and, linearised, normal forces of the doubtful
+            # elements: one clearly beyond its cone slides on (an event), and a block
+            # would solve its rows only to fail the check
+            at = probe & stuck
+            pt = (el.Tt3[at] @ u[0]).reshape(-1, 2) - z[at]
+            pt *= el.kt[at, None]
+            fn = f0[at] + memo[3][at] * (Tn[at] @ (u[0] - state.u))
+            if np.any(np.hypot(pt[:, 0], pt[:, 1]) > (1.0 + _PROBE_MARGIN) * mu * fn):
+                return np.zeros((0, 6)), np.zeros((0, 3 * n)), 0, u[0], None
         scale = np.abs(r).max(axis=1) + np.abs(form.W_pre).max() + normal.preload_scale(dn)
         tol = BLOCK_RTOL * scale
         m = len(r)

@@ -256,14 +256,15 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
             i += 1
             continue
         free = _free_sliders(state)
-        slid = None
+        slid = probe = None
         if free is None and form.diagonal and _REGRIP:
             # the spring model's sliding elements usually grip again at the next sample:
             # that state (every element that slid stuck where its slip left it) is tried
             # as a block first, its checks (pressing, inside the cone) deciding
             slid = state
             state = state.copy()
-            state.cls[state.cls == SLIDING] = STUCK
+            probe = state.cls == SLIDING
+            state.cls[probe] = STUCK
             free = np.zeros(n, dtype=bool)
         if free is not None and (state.cls == STUCK).any():
             maps = (True if form.normal_response is not None
@@ -277,7 +278,7 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
                                               x_tol[i:e])
                 else:   # a nonlinear tissue law: Newton per row, the state fixed
                     ub, Pb, k, guess, memo = block_nonlinear(form, state, r[i:e],
-                                                             f_tol[i:e], x_tol[i:e])
+                                                             f_tol[i:e], x_tol[i:e], probe)
                 full = k == e - i
                 width = min(_BLOCK, 2 * width) if full else _FIRST_BLOCK
                 if k:

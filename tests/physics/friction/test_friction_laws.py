@@ -215,3 +215,32 @@ def test_simulate_in_memory_with_friction_gives_the_reasons_in_its_frame():
     assert expected > 0
     np.testing.assert_allclose(frame["no_equilibrium_shortfall_Nm"][1], expected, rtol=1e-6)
     assert np.isnan(frame["no_equilibrium_shortfall_N"]).all()
+
+
+def test_the_regrip_probe_only_decides_which_solver_runs(monkeypatch):
+    """After a sample where elements slid, a block tries them gripping again unless the
+    first row's linearised step takes one clearly past its cone (normal.block_nonlinear's
+    probe). Whether that call is right or wrong, the sample is solved: skipping every such
+    block (the event solver then takes each sample) or none gives the same answers."""
+    from phri_spring.physics.friction import normal as friction_normal
+
+    monkeypatch.setattr(friction, "_COMPILED", False)    # the numpy path's blocks
+    model = _harmony_exp(0.5)
+    _, W = smooth_random_log(600, seed=8)
+    W = W / np.abs(W[:, :3]).max() * 50.0 * np.array([0.3, 1, 1, 0.01, 0.02, 0.02])
+    form = friction.interface_form(model)
+    runs, regrips = [], []
+    for margin in (-1.0, 1e9):     # every doubtful block skipped, none skipped
+        monkeypatch.setattr(friction_normal, "_PROBE_MARGIN", margin)
+        runs.append(solve(model, W))
+        _, _, cls, solves, _, _ = friction.solve_path(form, W + model.W_pre)
+        # samples right after a sliding one solved in a block: the regrips
+        regrips.append(int(np.sum((cls[:-1] == friction.SLIDING).any(axis=1)
+                                  & (solves[1:] == 0))))
+    assert regrips[0] == 0 and regrips[1] > 10
+    a, b = runs
+    np.testing.assert_array_equal(a.converged, b.converged)
+    assert a.converged.all()
+    scale = np.abs(W).max() + np.abs(model.W_pre).max()
+    np.testing.assert_allclose(a.forces, b.forces, rtol=0, atol=1e-8 * scale)
+    np.testing.assert_allclose(a.tangential, b.tangential, rtol=0, atol=1e-8 * scale)
