@@ -42,7 +42,7 @@ else:
         # cache: compiled once per install (next to the module, or numba's user cache)
         return _njit(cache=True, nogil=True, error_model="numpy")(fn)
 
-__all__ = ["NUMBA", "supports", "law_arrays", "solve_elements"]
+__all__ = ["NUMBA", "supports", "law_arrays", "solve_elements", "load"]
 
 #: as the event solver (friction/events.py): most Newton steps, steps without halving the
 #: residual before a sample is handed back, a step this long means a mode without stiffness
@@ -345,3 +345,14 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
             out_u[i, k] = uc[k]
         out_solves[i] = its if its > 1 else 1
     return m
+
+
+def load() -> None:
+    """Load (or compile) the loop's machine code for the argument types of a run: one
+    call on a sample of one element, the types :func:`~phri_spring.physics.friction.path.
+    solve_path` passes."""
+    n, z = 1, np.zeros
+    solve_elements(z((1, 6)), np.ones(1), z((n, 6)), z((n, 2, 6)), z(n), np.ones(n), 0.5, True,
+                   np.ones(n), z(n), z(n), np.full(n, RELEASED, dtype=np.int8), z((n, 2)),
+                   z((n, 2)), z(6), z((n, 3)), z(n), z((1, 6)), z((1, 3 * n)),
+                   z((1, n), dtype=np.int8), z(1, dtype=np.int64), 0)

@@ -55,6 +55,7 @@ from scipy.optimize import nnls
 
 from .events import solve_event_coupled, solve_event_elements
 from .active import active_step
+from . import loader
 from .maps import stuck_maps
 from .normal import block_nonlinear, frictionless_unheld
 # the shared pieces, importable from here too
@@ -220,9 +221,8 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     state = initial_state(form) if state is None else state.copy()
     cache = {} if cache is None else cache
     if compiled and _COMPILED and form.diagonal and form.mu > 0:
-        from . import kernel   # on demand: numba's import takes a moment
-
-        if kernel.NUMBA and kernel.supports(form):
+        kernel = loader.kernel()
+        if kernel is not None and kernel.NUMBA and kernel.supports(form):
             return _solve_compiled(form, kernel, r, state, cache)
     u = np.zeros((m, 6))
     P = np.zeros((m, n * d))
@@ -360,6 +360,7 @@ def _solve_compiled(form, kernel, r, state, cache):
     sample by the event solver's semismooth Newton method, from the one before. A sample
     the loop does not settle is solved by the numpy path with all its fallbacks (or
     flagged there), and the loop goes on from the state that leaves."""
+    r = np.ascontiguousarray(r)
     m, n = len(r), form.n
     key = ("compiled", id(form))
     arrays = cache.get(key)

@@ -118,3 +118,25 @@ def test_what_the_loop_does_not_cover_takes_the_numpy_path():
     # another registered law (any but the exponential) is the numpy path's
     other = dataclasses.replace(form, normal_response=type("R", (), {"law": object()})())
     assert not kernel.supports(other)
+
+
+def test_a_loop_that_cannot_load_leaves_the_numpy_path(monkeypatch):
+    """numba installed but unusable (its compiler failing): the friction path is the numpy
+    one, with the same answers, and nothing is raised."""
+    from phri_spring.physics.friction import loader
+
+    def broken():
+        raise RuntimeError("numba cannot compile here")
+
+    monkeypatch.setattr(kernel, "NUMBA", True)
+    monkeypatch.setattr(kernel, "load", broken)
+    for name, value in (("_MODULE", None), ("_FAILED", False), ("_THREAD", None)):
+        monkeypatch.setattr(loader, name, value)
+    model = _model("exponential")
+    W = _log(300, 2, 50.0)
+    got = solve(model, W)
+    assert loader.kernel() is None
+    monkeypatch.setattr(friction, "_COMPILED", False)
+    ref = solve(model, W)
+    np.testing.assert_array_equal(got.converged, ref.converged)
+    np.testing.assert_array_equal(got.forces, ref.forces)
