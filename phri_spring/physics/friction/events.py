@@ -37,12 +37,19 @@ def _newton_step(K, R):
     """K du = -R; where every contact on a mode slides (e.g. all of them around the arm)
     the tangent has almost no stiffness along it and the forces hardly depend on it: the
     least-norm step leaves the cuff where it is along that mode."""
+    if not (np.isfinite(K).all() and np.isfinite(R).all()):
+        # a law overflowed (an absurd load): no step; the iteration stalls and the sample
+        # is flagged
+        return np.zeros_like(R)
     try:
         du = np.linalg.solve(K, -R)
     except np.linalg.LinAlgError:
         du = None
     if du is None or not np.abs(du).max() < _HUGE_STEP:
-        du = np.linalg.lstsq(K, -R, rcond=1e-10)[0]
+        try:
+            du = np.linalg.lstsq(K, -R, rcond=1e-10)[0]
+        except np.linalg.LinAlgError:   # LAPACK's SVD did not converge
+            du = np.zeros_like(R)
     return du
 
 

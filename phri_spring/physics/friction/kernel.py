@@ -274,7 +274,10 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
     ut = np.empty(6)
     uc = np.empty(6)
     hist = np.empty(_MAX_STEPS + 1)
+    d_start = np.empty(n)
     for i in range(start, m):
+        for e in range(n):
+            d_start[e] = dsh[e]
         ri = r[i]
         tol = 1e-13 * scale[i]
         # a released element lands where its skin was at the last sample
@@ -316,11 +319,14 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
             for k in range(6):
                 uc[k] = ut[k]
             res = new
-        if not ok or not res <= tol * 10:
-            return i
+        settled = ok and res <= tol * 10
         for k in range(6):
-            if not math.isfinite(uc[k]):
-                return i
+            settled = settled and math.isfinite(uc[k])
+        if not settled:
+            # handed back with the state of the sample before, the splits included
+            for e in range(n):
+                dsh[e] = d_start[e]
+            return i
         for e in range(n):
             cls[e] = cc[e]
             if cc[e] == SLIDING:
