@@ -15,7 +15,8 @@ the load-cell point, in the load-cell axes, is the rigid-body map
 
 which is the displacement work-conjugate to the applied wrench (W . u = W_lc . u_lc).
 The curve of axis i is s against u_lc,i, measured from the preloaded state (zero
-wrench). Its slope at s = 0 is 1 / (K^-1)_ii with K the tangent stiffness at the
+wrench); each branch (axis and sign) is loaded from that state, 0 outward, a loading path
+of its own (with friction or lift-off the answer depends on the path). Its slope at s = 0 is 1 / (K^-1)_ii with K the tangent stiffness at the
 load cell (:func:`phri_spring.physics.response.stiffness.stiffness_at_loadcell`): under load
 control the other five components of the load are zero and the other five of the
 motion are free, so the slope is the inverse of the compliance's diagonal, not
@@ -152,6 +153,7 @@ def sweep_loadcell_axes(model, rotation=None, position=(0.0, 0.0, 0.0), *,
         Displacements from the preloaded state (the solution at zero wrench, u = 0 under
         the hoop strap, not under the handles).
     """
+    from ..contact.active_set import FactorCache
     from ..contact.solver import solve
 
     for name, value in (("max_force", max_force), ("max_moment", max_moment)):
@@ -160,14 +162,23 @@ def sweep_loadcell_axes(model, rotation=None, position=(0.0, 0.0, 0.0), *,
     loads = axis_loads(max_force, max_moment, points)
     W_lc = loads[..., None] * np.eye(6)[:, None, None, :]          # (6, 2, m, 6): s e_i
     W = loadcell_to_cuff(W_lc.reshape(-1, 6), rotation, position)
-    # the zero-load state first: every displacement is measured from it
-    sol = solve(model, np.vstack([np.zeros((1, 6)), W]), max_iterations=max_iterations)
-    u = np.asarray(sol.u, dtype=float)
-    ok = np.asarray(sol.converged, dtype=bool)
+    # the zero-load state first: every displacement is measured from it. Each branch is a
+    # loading path of its own from that state: with friction or lift-off the answer
+    # depends on the path, and a branch solved after another would start where that one
+    # ended (its slips and lifted patches), not from the preloaded cuff
+    cache = FactorCache()
+    parts = [solve(model, np.zeros((1, 6)), max_iterations=max_iterations, cache=cache)]
+    per = loads.shape[-1]
+    for b in range(0, len(W), per):
+        cache.path_state = None
+        parts.append(solve(model, W[b:b + per], max_iterations=max_iterations, cache=cache))
+    u = np.concatenate([np.atleast_2d(p.u) for p in parts]).astype(float)
+    ok = np.concatenate([np.atleast_1d(p.converged) for p in parts]).astype(bool)
+    contact = np.concatenate([np.atleast_2d(p.contact) for p in parts])
     du = np.where((ok[1:] & ok[0])[:, None], u[1:] - u[0], np.nan)
     motion = loadcell_motion(du, rotation, position).reshape(loads.shape + (6,))
     shape = loads.shape
     i = np.arange(6)
     return LoadSweep(load=loads, displacement=motion[i, ..., i],      # component i of axis i
-                     contacts=np.asarray(sol.contact)[1:].sum(axis=1).reshape(shape),
+                     contacts=contact[1:].sum(axis=1).reshape(shape),
                      converged=(ok[1:] & ok[0]).reshape(shape), motion=motion)
