@@ -1,22 +1,19 @@
-"""The compiled friction loop (:mod:`.kernel`), loaded on a thread.
+"""The compiled friction loop (:mod:`.kernel`), loaded once, on first use.
 
 numba's import and the loop's machine code (read from numba's cache, or compiled on the
-first run of an install) take about half a second; a model with friction starts loading
-them when it is built (:func:`warm_up`), so that the loading overlaps reading the log,
-and the first solve waits for it (:func:`kernel`). Where numba is missing or the loading
-fails, the friction path is the numpy one: a broken compiler never stops a run.
+first run of an install) take about half a second. Loading them on a thread while the
+model was built and the log opened gained nothing measurable (benchmarks/FRICTION.md,
+seventh session: the start is Python work that holds the interpreter), so the first solve
+loads them. Where numba is missing or the loading fails, the friction path is the numpy
+one: a broken compiler never stops a run.
 """
 
 from __future__ import annotations
 
-import threading
-
-__all__ = ["warm_up", "kernel"]
+__all__ = ["kernel"]
 
 _MODULE = None
 _FAILED = False
-_THREAD = None
-_LOCK = threading.Lock()
 
 
 def _load() -> None:
@@ -31,21 +28,8 @@ def _load() -> None:
         _FAILED = True
 
 
-def warm_up() -> None:
-    """Start loading the compiled loop on a daemon thread (once per process)."""
-    global _THREAD
-    with _LOCK:
-        if _MODULE is None and _THREAD is None and not _FAILED:
-            _THREAD = threading.Thread(target=_load, name="phri-friction-kernel", daemon=True)
-            _THREAD.start()
-
-
 def kernel():
-    """The :mod:`.kernel` module once loaded (waiting for :func:`warm_up`'s thread), or None
-    where it could not be loaded."""
-    thread = _THREAD
-    if thread is not None:
-        thread.join()
+    """The :mod:`.kernel` module once loaded, or None where it could not be loaded."""
     if _MODULE is None and not _FAILED:
         _load()
     return _MODULE

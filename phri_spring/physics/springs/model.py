@@ -329,11 +329,6 @@ def build_model(geometry: CuffGeometry, k_tissue, k_cuff, *, arm: str = "complia
         W_pre = W_handles
 
     mu = check_friction(friction_coefficient)
-    if mu:
-        # friction's compiled loop: loading it overlaps the rest of the start
-        from ..friction.loader import warm_up
-
-        warm_up()
     return SpringModel(geometry=geometry, arm=arm, k=k, k_shear=k_s, K_s=K_s, delta0=delta0,
                        f0=f0, W_pre=W_pre, strap_model=strap_model,
                        pain_threshold_kpa=float(pain_threshold_kpa), element=element,

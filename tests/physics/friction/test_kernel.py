@@ -132,7 +132,7 @@ def test_a_loop_that_cannot_load_leaves_the_numpy_path(monkeypatch):
 
     monkeypatch.setattr(kernel, "NUMBA", True)
     monkeypatch.setattr(kernel, "load", broken)
-    for name, value in (("_MODULE", None), ("_FAILED", False), ("_THREAD", None)):
+    for name, value in (("_MODULE", None), ("_FAILED", False)):
         monkeypatch.setattr(loader, name, value)
     model = _model("exponential")
     W = _log(300, 2, 50.0)
