@@ -494,6 +494,7 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
     code = (state.cls != RELEASED).astype(np.int8)
     F = np.zeros(0)
     solves = 0
+    tried = [code]
     for _ in range(_HOPS):
         sm = _state(form, cache, code)
         if not sm.ok:
@@ -541,8 +542,21 @@ def active_step(form, cache: dict, state: PathState, r, f_tol, x_tol):
         # the next state: each patch corrected on its own, as a return mapping does (a
         # loop over the patches: few of them change, and at this size Python's scalars
         # cost less than a few dozen array operations)
+        last = code
         code, F = _next_state(form, state, sm, code, z, Y, P.tolist(), fc.tolist(), slip,
                               f_tol, x_tol)
         if code is None:
             return None
+        if any(np.array_equal(code, t) for t in tried):
+            # a patch at the edge of contact toggles: released, its skin presses it back;
+            # tied where it lands, it pulls. It touches with its cone closed (the reading
+            # under it not compressive): it slides freely (the semismooth Newton's answer)
+            flip = (code == RELEASED) != (last == RELEASED)
+            flip &= (code <= STUCK) & (last <= STUCK)
+            if flip.any():
+                free = code.copy()
+                free[flip] = _FREE
+                if not any(np.array_equal(free, t) for t in tried):
+                    code = free
+        tried.append(code)
     return None
