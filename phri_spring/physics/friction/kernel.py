@@ -7,11 +7,13 @@ mapping, the consistent tangent, a backtracking line search). This module writes
 method in scalar code that numba compiles, and solves a log sample after sample with it,
 each sample from the one before: compiled, a sample costs a few microseconds, which the
 numpy path (affine or Newton blocks between the events, docs/model.md 12.3) reaches only
-where nothing slides for long stretches. It covers the linear springs and the
-exponential law (the human preset's) with or without a cuff spring; any other law, or an
-install without numba, takes the numpy path. A sample the compiled loop does not settle
-(no equilibrium, a singular tangent, a stalled iteration) is handed back, and the numpy
-path solves it with all its fallbacks, so both paths flag the same samples.
+where nothing slides for long stretches. Where the Newton method does not settle a
+sample, the loop runs the numpy path's fallbacks itself (every touching element gripping,
+the Newton method again from there, two half increments; a damped least-squares step
+where the tangent is singular), so that a log with many samples without an equilibrium
+costs microseconds per sample too, and flags what none of them settles. It covers the
+linear springs and the exponential law (the human preset's) with or without a cuff
+spring; any other law, or an install without numba, takes the numpy path.
 """
 
 from __future__ import annotations
@@ -32,11 +34,19 @@ except ImportError:  # the same loop, interpreted (the tests compare it with the
 
     def _entry(fn):
         return fn
+
+    def _call(fn):
+        return fn
 else:
     NUMBA = True
 
     def _jit(fn):
-        return _njit(inline="always", error_model="numpy")(fn)
+        return _njit(error_model="numpy")(fn)
+
+    def _call(fn):
+        # compiled on its own, called from the loop (numba does not inline a function of
+        # this many arguments)
+        return _njit(error_model="numpy")(fn)
 
     def _entry(fn):
         # cache: compiled once per install (next to the module, or numba's user cache)
@@ -80,7 +90,10 @@ def law_arrays(form):
 def _tissue(d, k0, beta):
     """(F, F') of the exponential law at d >= 0."""
     if beta > 0.0:
-        em = math.expm1(beta * d)
+        x = beta * d
+        if x > 700.0:       # exp overflows (as numpy's does, without raising)
+            return np.inf, np.inf
+        em = math.expm1(x)
         return k0 / beta * em, k0 * (1.0 + em)
     return k0 * d, k0
 
@@ -122,10 +135,11 @@ def _normal(g, d0, law_exp, k0, beta, c):
 
 @_jit
 def _evaluate(u, r, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
-              Pn, kN, Pt, tn, dr, cls, R):
+              Pn, kN, Pt, tn, dr, cls, R, stick):
     """Each element's return mapping at u (into Pn, kN, Pt, tn = |trial force|, dr = its
     direction where sliding, cls; the splits dsh warm start and are updated) and the
-    residual R = sum forces - r; returns max |R|."""
+    residual R = sum forces - r; returns max |R|. ``stick``: no element slides (the
+    state where every touching element grips, checked against its cone afterwards)."""
     n = Tn.shape[0]
     for k in range(6):
         R[k] = -r[k]
@@ -144,7 +158,7 @@ def _evaluate(u, r, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
             t1 = kt[e] * a1
             tt = math.sqrt(t0 * t0 + t1 * t1)
             tn[e] = tt
-            if tt > mu * f:
+            if tt > mu * f and not stick:
                 cls[e] = SLIDING
                 dr[e, 0] = t0 / tt
                 dr[e, 1] = t1 / tt
@@ -210,55 +224,191 @@ def _tangent(Tn, Tt, kt, mu, Pn, kN, tn, dr, cls, K):
 
 
 @_jit
-def _solve6(K, R, du):
-    """du = -K^-1 R by Gaussian elimination with partial pivoting (K is overwritten);
-    False where K is singular or the step is not finite or longer than _HUGE_STEP (the
-    numpy path then takes the sample: it has the least-squares step)."""
-    b = np.empty(6)
-    for i in range(6):
-        b[i] = -R[i]
+def _gauss6(M, b, x):
+    """x = M^-1 b by Gaussian elimination with partial pivoting (M and b are overwritten);
+    False where M is singular."""
     for col in range(6):
         p = col
-        best = abs(K[col, col])
+        best = abs(M[col, col])
         for row in range(col + 1, 6):
-            if abs(K[row, col]) > best:
-                best = abs(K[row, col])
+            if abs(M[row, col]) > best:
+                best = abs(M[row, col])
                 p = row
         if not best > 0.0:
             return False
         if p != col:
             for k in range(6):
-                tmp = K[col, k]
-                K[col, k] = K[p, k]
-                K[p, k] = tmp
+                tmp = M[col, k]
+                M[col, k] = M[p, k]
+                M[p, k] = tmp
             tmp = b[col]
             b[col] = b[p]
             b[p] = tmp
         for row in range(col + 1, 6):
-            fct = K[row, col] / K[col, col]
+            fct = M[row, col] / M[col, col]
             if fct != 0.0:
                 for k in range(col, 6):
-                    K[row, k] -= fct * K[col, k]
+                    M[row, k] -= fct * M[col, k]
                 b[row] -= fct * b[col]
     for row in range(5, -1, -1):
         acc = b[row]
         for k in range(row + 1, 6):
-            acc -= K[row, k] * du[k]
-        du[row] = acc / K[row, row]
+            acc -= M[row, k] * x[k]
+        x[row] = acc / M[row, row]
+    return True
+
+
+@_call
+def _solve6(K, R, du, M, b):
+    """du = -K^-1 R, the event solver's step: where K is singular or the step is longer
+    than _HUGE_STEP, the damped least-squares step (K^T K + lam I) du = -K^T R with lam
+    1e-12 of K^T K's mean diagonal, which leaves the cuff where it is along a mode
+    without stiffness, as the least-norm step does. False where no finite step is found."""
+    for i in range(6):
+        b[i] = -R[i]
+        for k in range(6):
+            M[i, k] = K[i, k]
+    ok = _gauss6(M, b, du)
+    if ok:
+        for k in range(6):
+            if not abs(du[k]) < _HUGE_STEP:
+                ok = False
+    if not ok:
+        lam = 0.0
+        for i in range(6):
+            for j in range(6):
+                acc = 0.0
+                for k in range(6):
+                    acc += K[k, i] * K[k, j]
+                M[i, j] = acc
+            lam += M[i, i]
+            acc = 0.0
+            for k in range(6):
+                acc -= K[k, i] * R[k]
+            b[i] = acc
+        lam *= 1e-12 / 6.0
+        if not (lam > 0.0 and math.isfinite(lam)):
+            return False
+        for i in range(6):
+            M[i, i] += lam
+        if not _gauss6(M, b, du):
+            return False
     for k in range(6):
-        if not abs(du[k]) < _HUGE_STEP:
+        if not math.isfinite(du[k]):
             return False
     return True
 
 
+@_call
+def _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls, z, u, dsh,
+            z0, uc, Pn, kN, Pt, tn, dr, cc, R, K, du, ut, hist, stick, f_tol, M, b,
+            from_uc):
+    """One sample at wrench ri from the state (cls, z, u; the splits dsh are its warm start
+    and are changed): the event solver's semismooth Newton method, or with ``stick`` the
+    numpy path's block (no element sliding; settled only if every touching element is
+    inside its cone to f_tol); started at u, or with ``from_uc`` at uc. Returns (settled,
+    Newton steps, the last residual); the answer is in uc, Pn, Pt, dr, cc, z0."""
+    n = Tn.shape[0]
+    # a released element lands where its skin was at the last sample
+    for e in range(n):
+        if cls[e] == RELEASED:
+            for a in range(2):
+                acc = 0.0
+                for k in range(6):
+                    acc += Tt[e, a, k] * u[k]
+                z0[e, a] = acc
+        else:
+            z0[e, 0] = z[e, 0]
+            z0[e, 1] = z[e, 1]
+    if not from_uc:
+        for k in range(6):
+            uc[k] = u[k]
+    res = _evaluate(uc, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
+                    Pn, kN, Pt, tn, dr, cc, R, stick)
+    its = 0
+    ok = True
+    while its < _MAX_STEPS and res > tol:
+        if its >= _STALL and res > 0.5 * hist[its - _STALL]:
+            ok = False
+            break
+        hist[its] = res
+        its += 1
+        _tangent(Tn, Tt, kt, mu, Pn, kN, tn, dr, cc, K)
+        if not _solve6(K, R, du, M, b):
+            ok = False
+            break
+        step = 1.0
+        while True:
+            for k in range(6):
+                ut[k] = uc[k] + step * du[k]
+            new = _evaluate(ut, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
+                            Pn, kN, Pt, tn, dr, cc, R, stick)
+            if new < res or step < 1e-4:
+                break
+            step *= 0.5
+        for k in range(6):
+            uc[k] = ut[k]
+        res = new
+    settled = ok and res <= tol * 10
+    for k in range(6):
+        settled = settled and math.isfinite(uc[k])
+    if settled and stick:
+        for e in range(n):
+            if cc[e] == STUCK and tn[e] > mu * Pn[e] + f_tol:
+                settled = False
+    return settled, its, res
+
+
+@_call
+def _commit(Tt, kt, cls, z, s, u, P, z0, uc, Pn, Pt, dr, cc):
+    """The state after a settled sample (the return mapping's new ties and slips)."""
+    n = Tt.shape[0]
+    for e in range(n):
+        cls[e] = cc[e]
+        if cc[e] == SLIDING:
+            for a in range(2):
+                acc = 0.0
+                for k in range(6):
+                    acc += Tt[e, a, k] * uc[k]
+                z[e, a] = acc - Pt[e, a] / kt[e]
+                s[e, a] = dr[e, a]
+        else:
+            z[e, 0] = z0[e, 0]
+            z[e, 1] = z0[e, 1]
+        P[e, 0] = Pn[e]
+        P[e, 1] = Pt[e, 0]
+        P[e, 2] = Pt[e, 1]
+    for k in range(6):
+        u[k] = uc[k]
+
+
+@_jit
+def _copy_state(cls, z, s, u, P, cls_to, z_to, s_to, u_to, P_to):
+    for e in range(cls.shape[0]):
+        cls_to[e] = cls[e]
+        for a in range(2):
+            z_to[e, a] = z[e, a]
+            s_to[e, a] = s[e, a]
+        for a in range(3):
+            P_to[e, a] = P[e, a]
+    for k in range(6):
+        u_to[k] = u[k]
+
+
 @_entry
 def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
-                   cls, z, s, u, P, dsh, out_u, out_P, out_cls, out_solves, start):
-    """Solve samples r (m, 6) in order from row ``start``; the state (cls (n,), z (n, 2)
-    the ties' offsets, s (n, 2) slip directions, u (6,), P (n, 3), dsh (n,) the tissue
-    shares) is updated in place after every sample. ``scale`` (m,): each sample's force
-    scale (its tolerance is 1e-13 of it). Returns the first row not settled (m if all
-    were): the state is then the one before it."""
+                   cls, z, s, u, P, dsh, out_u, out_P, out_cls, out_solves, out_conv):
+    """Solve samples r (m, 6) in order; the state (cls (n,), z (n, 2) the ties' offsets,
+    s (n, 2) slip directions, u (6,), P (n, 3), dsh (n,) the tissue shares) is updated in
+    place after every sample. ``scale`` (m,): each sample's force scale (its tolerance is
+    1e-13 of it).
+
+    A sample is solved as the numpy path solves it: the semismooth Newton method from the
+    sample before; where that does not settle, every touching element gripping (the
+    path's block), then the Newton method again from where that ended, then two half
+    increments from the wrench the state balances. A sample none of them settles is
+    flagged (NaN, not converged) and the next starts from the state before it.
+    """
     m = r.shape[0]
     n = Tn.shape[0]
     z0 = np.empty((n, 2))
@@ -275,82 +425,85 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
     uc = np.empty(6)
     hist = np.empty(_MAX_STEPS + 1)
     d_start = np.empty(n)
-    for i in range(start, m):
+    mid = np.empty(6)
+    M = np.empty((6, 6))
+    b = np.empty(6)
+    # the state before a failed sample's increments, restored if they fail
+    cls_b = np.empty(n, dtype=cls.dtype)
+    z_b = np.empty((n, 2))
+    s_b = np.empty((n, 2))
+    u_b = np.empty(6)
+    P_b = np.empty((n, 3))
+    for i in range(m):
         for e in range(n):
             d_start[e] = dsh[e]
         ri = r[i]
         tol = 1e-13 * scale[i]
-        # a released element lands where its skin was at the last sample
-        for e in range(n):
-            if cls[e] == RELEASED:
-                for a in range(2):
-                    acc = 0.0
-                    for k in range(6):
-                        acc += Tt[e, a, k] * u[k]
-                    z0[e, a] = acc
-            else:
-                z0[e, 0] = z[e, 0]
-                z0[e, 1] = z[e, 1]
-        for k in range(6):
-            uc[k] = u[k]
-        res = _evaluate(uc, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
-                        Pn, kN, Pt, tn, dr, cc, R)
-        its = 0
-        ok = True
-        while its < _MAX_STEPS and res > tol:
-            if its >= _STALL and res > 0.5 * hist[its - _STALL]:
-                ok = False
-                break
-            hist[its] = res
-            its += 1
-            _tangent(Tn, Tt, kt, mu, Pn, kN, tn, dr, cc, K)
-            if not _solve6(K, R, du):
-                ok = False
-                break
-            step = 1.0
-            while True:
-                for k in range(6):
-                    ut[k] = uc[k] + step * du[k]
-                new = _evaluate(ut, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
-                                Pn, kN, Pt, tn, dr, cc, R)
-                if new < res or step < 1e-4:
-                    break
-                step *= 0.5
-            for k in range(6):
-                uc[k] = ut[k]
-            res = new
-        settled = ok and res <= tol * 10
-        for k in range(6):
-            settled = settled and math.isfinite(uc[k])
+        f_tol = 1e-9 * scale[i]
+        settled, its, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls,
+                                    z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R, K, du, ut,
+                                    hist, False, f_tol, M, b, False)
         if not settled:
-            # handed back with the state of the sample before, the splits included
+            # every touching element gripping (the numpy path's block)
             for e in range(n):
                 dsh[e] = d_start[e]
-            return i
+            settled, its1, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
+                                       cls, z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R,
+                                       K, du, ut, hist, True, f_tol, M, b, False)
+            its += its1
+            finite = True
+            for k in range(6):
+                finite = finite and math.isfinite(uc[k])
+            if not settled and finite:
+                # the semismooth Newton again, from where gripping ended (the numpy path
+                # starts its event at the block's answer)
+                settled, its1, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta,
+                                           c, cls, z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr,
+                                           cc, R, K, du, ut, hist, False, f_tol, M, b, True)
+                its += its1
+        if not settled:
+            for e in range(n):
+                dsh[e] = d_start[e]
+            # two half increments from the wrench the state balances
+            for k in range(6):
+                acc = 0.0
+                for e in range(n):
+                    acc += Tn[e, k] * P[e, 0] + Tt[e, 0, k] * P[e, 1] + Tt[e, 1, k] * P[e, 2]
+                mid[k] = 0.5 * (acc + ri[k])
+            _copy_state(cls, z, s, u, P, cls_b, z_b, s_b, u_b, P_b)
+            ok1, its1, _ = _newton(mid, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
+                                      cls, z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R, K,
+                                      du, ut, hist, False, f_tol, M, b, False)
+            its += its1
+            if ok1:
+                _commit(Tt, kt, cls, z, s, u, P, z0, uc, Pn, Pt, dr, cc)
+                settled, its2, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0,
+                                              beta, c, cls, z, u, dsh, z0, uc, Pn, kN, Pt,
+                                              tn, dr, cc, R, K, du, ut, hist, False, f_tol, M, b, False)
+                its += its2
+            if not settled:
+                _copy_state(cls_b, z_b, s_b, u_b, P_b, cls, z, s, u, P)
+                for e in range(n):
+                    dsh[e] = d_start[e]
+                for k in range(6):
+                    out_u[i, k] = np.nan
+                for e in range(n):
+                    out_cls[i, e] = RELEASED
+                    for a in range(3):
+                        out_P[i, 3 * e + a] = np.nan
+                out_conv[i] = False
+                out_solves[i] = its if its > 1 else 1
+                continue
+        _commit(Tt, kt, cls, z, s, u, P, z0, uc, Pn, Pt, dr, cc)
         for e in range(n):
-            cls[e] = cc[e]
-            if cc[e] == SLIDING:
-                for a in range(2):
-                    acc = 0.0
-                    for k in range(6):
-                        acc += Tt[e, a, k] * uc[k]
-                    z[e, a] = acc - Pt[e, a] / kt[e]
-                    s[e, a] = dr[e, a]
-            else:
-                z[e, 0] = z0[e, 0]
-                z[e, 1] = z0[e, 1]
-            P[e, 0] = Pn[e]
-            P[e, 1] = Pt[e, 0]
-            P[e, 2] = Pt[e, 1]
             out_cls[i, e] = cc[e]
             out_P[i, 3 * e] = Pn[e]
             out_P[i, 3 * e + 1] = Pt[e, 0]
             out_P[i, 3 * e + 2] = Pt[e, 1]
         for k in range(6):
-            u[k] = uc[k]
             out_u[i, k] = uc[k]
+        out_conv[i] = True
         out_solves[i] = its if its > 1 else 1
-    return m
 
 
 def load() -> None:
@@ -361,4 +514,4 @@ def load() -> None:
     solve_elements(z((1, 6)), np.ones(1), z((n, 6)), z((n, 2, 6)), z(n), np.ones(n), 0.5, True,
                    np.ones(n), z(n), z(n), np.full(n, RELEASED, dtype=np.int8), z((n, 2)),
                    z((n, 2)), z(6), z((n, 3)), z(n), z((1, 6)), z((1, 3 * n)),
-                   z((1, n), dtype=np.int8), z(1, dtype=np.int64), 0)
+                   z((1, n), dtype=np.int8), z(1, dtype=np.int64), np.ones(1, dtype=bool))

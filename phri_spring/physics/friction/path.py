@@ -357,9 +357,8 @@ _COMPILED = True
 
 def _solve_compiled(form, kernel, r, state, cache):
     """:func:`solve_path` of the spring model by the compiled loop (:mod:`.kernel`): every
-    sample by the event solver's semismooth Newton method, from the one before. A sample
-    the loop does not settle is solved by the numpy path with all its fallbacks (or
-    flagged there), and the loop goes on from the state that leaves."""
+    sample by the event solver's semismooth Newton method from the one before, with the
+    numpy path's fallbacks where it does not settle."""
     r = np.ascontiguousarray(r)
     m, n = len(r), form.n
     key = ("compiled", id(form))
@@ -369,48 +368,33 @@ def _solve_compiled(form, kernel, r, state, cache):
         arrays = cache[key] = (el.Tn, np.ascontiguousarray(el.Tt3), el.dn, el.kt,
                                *kernel.law_arrays(form))
     Tn, Tt, dn, kt, law_exp, k0, beta, c = arrays
-    scale = np.abs(r).max(axis=1) + (np.abs(form.W_pre).max() + 1e-300)
+    # the force scale of a sample's round-off: its wrench, the strap's, and the preload's
+    # element forces, which cancel on the cuff under a hoop (a zero wrench is then no scale)
     normal = form.normal_response
-    if normal is not None:
-        scale += normal.preload_scale(dn)
+    preload = (normal.preload_scale(dn) if normal is not None
+               else float(np.abs(k0 * np.maximum(dn, 0.0)).max(initial=0.0)))
+    scale = np.abs(r).max(axis=1) + (np.abs(form.W_pre).max() + preload + 1e-300)
     u = np.zeros((m, 6))
     P = np.zeros((m, 3 * n))
     cls = np.zeros((m, n), dtype=np.int8)
     solves = np.zeros(m, dtype=np.int64)
     conv = np.ones(m, dtype=bool)
-    # the state as the loop's arrays, updated in place
+    # the state as the loop's arrays, updated in place (copies: the caller's is kept)
     sc, sz, ss = state.cls.astype(np.int8), np.ascontiguousarray(state.z[:, 1:3]), state.s.copy()
     su, sP = state.u.copy(), state.P.reshape(n, 3).copy()
     dsh = (state.memo[1].copy() if state.memo is not None and state.memo[1].shape == (n,)
            else np.full(n, -1.0))
 
-    def as_state():
-        z = np.zeros((n, 3))
-        z[:, 1:3] = sz
-        memo = None
-        if normal is not None:
-            g = Tn @ su + dn
-            gp = np.maximum(g, 0.0)
-            memo = normal.evaluate(g, (gp, np.clip(dsh, 0.0, gp), np.zeros(n)))[2]
-        return PathState(cls=sc.copy(), z=z, s=ss.copy(), u=su.copy(), P=sP.ravel().copy(),
-                         memo=memo)
-
-    i = 0
-    while i < m:
-        j = kernel.solve_elements(r, scale, Tn, Tt, dn, kt, form.mu, law_exp, k0, beta, c,
-                                  sc, sz, ss, su, sP, dsh, u, P, cls, solves, i)
-        if j >= m:
-            break
-        # the sample the loop handed back, by the numpy path from the state it left
-        uj, Pj, cj, sj, okj, st = solve_path(form, r[j:j + 1], as_state(), cache,
-                                             compiled=False)
-        u[j], P[j], cls[j], solves[j], conv[j] = uj[0], Pj[0], cj[0], sj[0], okj[0]
-        sc[:], sz[:], ss[:] = st.cls, st.z[:, 1:3], st.s
-        su[:], sP[:] = st.u, st.P.reshape(n, 3)
-        if st.memo is not None:
-            dsh[:] = st.memo[1]
-        i = j + 1
-    return u, P, cls, solves, conv, as_state()
+    kernel.solve_elements(r, scale, Tn, Tt, dn, kt, form.mu, law_exp, k0, beta, c,
+                          sc, sz, ss, su, sP, dsh, u, P, cls, solves, conv)
+    z = np.zeros((n, 3))
+    z[:, 1:3] = sz
+    memo = None
+    if normal is not None:      # the numpy path's memo of the split where the path ends
+        g = Tn @ su + dn
+        gp = np.maximum(g, 0.0)
+        memo = normal.evaluate(g, (gp, np.clip(dsh, 0.0, gp), np.zeros(n)))[2]
+    return u, P, cls, solves, conv, PathState(cls=sc, z=z, s=ss, u=su, P=sP.ravel(), memo=memo)
 
 
 #: most halvings of a sample's increment before it is flagged (2**4 = 16 increments)

@@ -74,18 +74,27 @@ def test_the_loop_gives_the_numpy_paths_answers(case, loop, monkeypatch):
 
 
 def test_samples_without_an_answer_are_flagged_as_the_numpy_path_flags_them(loop, monkeypatch):
-    # pushes and twists the friction cannot hold at mu = 0.2: the loop hands those samples
-    # back and the numpy path (events, increments) flags them
+    """Pushes and twists the friction cannot hold at mu = 0.2 (nine samples in ten): the
+    loop runs the numpy path's fallbacks itself (gripping, the Newton method again from
+    there, two half increments) and flags what none settles. The two paths flag the
+    same samples here; where a fallback settles a sample, the two may take different
+    answers (Coulomb friction's need not be unique), so their forces are compared up to
+    the first such sample, and the loop's are checked against the laws everywhere."""
     model = _model("exponential", mu=0.2)
     W = _log(400, 3, 60.0) * np.array([3.0, 1, 1, 30, 1, 1])
     got = solve(model, W)
     monkeypatch.setattr(friction, "_COMPILED", False)
     ref = solve(model, W)
-    assert 0 < (~ref.converged).sum() < len(W)
+    assert 0.5 * len(W) < (~ref.converged).sum() < len(W)
     np.testing.assert_array_equal(got.converged, ref.converged)
-    np.testing.assert_allclose(got.forces, ref.forces, rtol=0,
-                               atol=1e-9 * np.abs(W).max(), equal_nan=True)
     assert np.isnan(got.forces[~got.converged]).all()
+    check_friction_laws(model, W, got, 0.2)
+    # up to the first sample settled after a flagged one (where a fallback acts)
+    after = np.flatnonzero(got.converged[1:] & ~got.converged[:-1])
+    upto = after[0] + 1 if after.size else len(W)
+    assert upto >= 20
+    np.testing.assert_allclose(got.forces[:upto], ref.forces[:upto], rtol=0,
+                               atol=1e-9 * np.abs(W).max(), equal_nan=True)
 
 
 def test_chunks_carry_the_loops_path(loop):
