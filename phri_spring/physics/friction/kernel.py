@@ -135,12 +135,15 @@ def _normal(g, d0, law_exp, k0, beta, c):
 
 @_jit
 def _evaluate(u, r, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
-              Pn, kN, Pt, tn, dr, cls, R, stick):
+              Pn, kN, Pt, tn, dr, cls, R, held):
     """Each element's return mapping at u (into Pn, kN, Pt, tn = |trial force|, dr = its
     direction where sliding, cls; the splits dsh warm start and are updated) and the
-    residual R = sum forces - r; returns max |R|. ``stick``: no element slides (the
-    state where every touching element grips, checked against its cone afterwards)."""
+    residual R = sum forces - r; returns max |R|. ``held`` (n,) int8, or an empty array:
+    the numpy path's block instead of the return mapping, the state held: an element
+    released in it stays released, every other is tied (its normal spring pressing only
+    where compressed), whatever its force; the block's checks come after."""
     n = Tn.shape[0]
+    block = held.shape[0] > 0
     for k in range(6):
         R[k] = -r[k]
     for e in range(n):
@@ -151,14 +154,31 @@ def _evaluate(u, r, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
             g += Tn[e, k] * u[k]
             a0 += Tt[e, 0, k] * u[k]
             a1 += Tt[e, 1, k] * u[k]
-        if g > 0.0:
+        if block and held[e] == RELEASED:
+            f = 0.0
+            kk = 0.0
+            t0 = 0.0
+            t1 = 0.0
+            tn[e] = 0.0
+            cls[e] = RELEASED
+        elif block:
+            f = 0.0
+            kk = 0.0
+            if g > 0.0:
+                f, kk, d = _normal(g, dsh[e], law_exp, k0[e], beta[e], c[e])
+                dsh[e] = d
+            t0 = kt[e] * a0
+            t1 = kt[e] * a1
+            tn[e] = math.sqrt(t0 * t0 + t1 * t1)
+            cls[e] = STUCK
+        elif g > 0.0:
             f, kk, d = _normal(g, dsh[e], law_exp, k0[e], beta[e], c[e])
             dsh[e] = d
             t0 = kt[e] * a0
             t1 = kt[e] * a1
             tt = math.sqrt(t0 * t0 + t1 * t1)
             tn[e] = tt
-            if tt > mu * f and not stick:
+            if tt > mu * f:
                 cls[e] = SLIDING
                 dr[e, 0] = t0 / tt
                 dr[e, 1] = t1 / tt
@@ -301,13 +321,14 @@ def _solve6(K, R, du, M, b):
 
 @_call
 def _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls, z, u, dsh,
-            z0, uc, Pn, kN, Pt, tn, dr, cc, R, K, du, ut, hist, stick, f_tol, M, b,
+            z0, uc, Pn, kN, Pt, tn, dr, cc, R, K, du, ut, hist, held, f_tol, x_tol, M, b,
             from_uc):
     """One sample at wrench ri from the state (cls, z, u; the splits dsh are its warm start
-    and are changed): the event solver's semismooth Newton method, or with ``stick`` the
-    numpy path's block (no element sliding; settled only if every touching element is
-    inside its cone to f_tol); started at u, or with ``from_uc`` at uc. Returns (settled,
-    Newton steps, the last residual); the answer is in uc, Pn, Pt, dr, cc, z0."""
+    and are changed): the event solver's semismooth Newton method, or with a state
+    ``held`` (n,) the numpy path's block in that state (settled only if its checks pass:
+    tied elements pressing, to x_tol, and inside their cones, to f_tol; released ones not
+    penetrating); started at u, or with ``from_uc`` at uc. Returns (settled, Newton steps,
+    the last residual); the answer is in uc, Pn, Pt, dr, cc, z0."""
     n = Tn.shape[0]
     # a released element lands where its skin was at the last sample
     for e in range(n):
@@ -324,7 +345,7 @@ def _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls, z, u, dsh,
         for k in range(6):
             uc[k] = u[k]
     res = _evaluate(uc, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
-                    Pn, kN, Pt, tn, dr, cc, R, stick)
+                    Pn, kN, Pt, tn, dr, cc, R, held)
     its = 0
     ok = True
     while its < _MAX_STEPS and res > tol:
@@ -342,7 +363,7 @@ def _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls, z, u, dsh,
             for k in range(6):
                 ut[k] = uc[k] + step * du[k]
             new = _evaluate(ut, ri, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
-                            Pn, kN, Pt, tn, dr, cc, R, stick)
+                            Pn, kN, Pt, tn, dr, cc, R, held)
             if new < res or step < 1e-4:
                 break
             step *= 0.5
@@ -352,9 +373,15 @@ def _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls, z, u, dsh,
     settled = ok and res <= tol * 10
     for k in range(6):
         settled = settled and math.isfinite(uc[k])
-    if settled and stick:
+    if settled and held.shape[0] > 0:
         for e in range(n):
-            if cc[e] == STUCK and tn[e] > mu * Pn[e] + f_tol:
+            g = dn[e]
+            for k in range(6):
+                g += Tn[e, k] * uc[k]
+            if cc[e] == STUCK:
+                if tn[e] > mu * Pn[e] + f_tol or g < -x_tol:
+                    settled = False
+            elif g > x_tol:
                 settled = False
     return settled, its, res
 
@@ -397,11 +424,12 @@ def _copy_state(cls, z, s, u, P, cls_to, z_to, s_to, u_to, P_to):
 
 @_entry
 def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
-                   cls, z, s, u, P, dsh, out_u, out_P, out_cls, out_solves, out_conv):
+                   cls, z, s, u, P, dsh, out_u, out_P, out_cls, out_solves, out_conv,
+                   x_ratio):
     """Solve samples r (m, 6) in order; the state (cls (n,), z (n, 2) the ties' offsets,
     s (n, 2) slip directions, u (6,), P (n, 3), dsh (n,) the tissue shares) is updated in
     place after every sample. ``scale`` (m,): each sample's force scale (its tolerance is
-    1e-13 of it).
+    1e-13 of it, its state checks' 1e-9, and x_ratio times that for displacements [m]).
 
     A sample is solved as the numpy path solves it: the semismooth Newton method from the
     sample before; where that does not settle, every touching element gripping (the
@@ -428,6 +456,7 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
     mid = np.empty(6)
     M = np.empty((6, 6))
     b = np.empty(6)
+    free = np.empty(0, dtype=np.int8)     # no state held: the return mapping
     # the state before a failed sample's increments, restored if they fail
     cls_b = np.empty(n, dtype=cls.dtype)
     z_b = np.empty((n, 2))
@@ -440,16 +469,17 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
         ri = r[i]
         tol = 1e-13 * scale[i]
         f_tol = 1e-9 * scale[i]
+        x_tol = f_tol * x_ratio
         settled, its, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls,
-                                    z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R, K, du, ut,
-                                    hist, False, f_tol, M, b, False)
+                                  z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R, K, du, ut,
+                                  hist, free, f_tol, x_tol, M, b, False)
         if not settled:
-            # every touching element gripping (the numpy path's block)
+            # the state held, every element that slid gripping (the numpy path's block)
             for e in range(n):
                 dsh[e] = d_start[e]
             settled, its1, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
                                        cls, z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R,
-                                       K, du, ut, hist, True, f_tol, M, b, False)
+                                       K, du, ut, hist, cls, f_tol, x_tol, M, b, False)
             its += its1
             finite = True
             for k in range(6):
@@ -459,7 +489,8 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
                 # starts its event at the block's answer)
                 settled, its1, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta,
                                            c, cls, z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr,
-                                           cc, R, K, du, ut, hist, False, f_tol, M, b, True)
+                                           cc, R, K, du, ut, hist, free, f_tol, x_tol, M,
+                                           b, True)
                 its += its1
         if not settled:
             for e in range(n):
@@ -472,14 +503,15 @@ def solve_elements(r, scale, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
                 mid[k] = 0.5 * (acc + ri[k])
             _copy_state(cls, z, s, u, P, cls_b, z_b, s_b, u_b, P_b)
             ok1, its1, _ = _newton(mid, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c,
-                                      cls, z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R, K,
-                                      du, ut, hist, False, f_tol, M, b, False)
+                                   cls, z, u, dsh, z0, uc, Pn, kN, Pt, tn, dr, cc, R, K,
+                                   du, ut, hist, free, f_tol, x_tol, M, b, False)
             its += its1
             if ok1:
                 _commit(Tt, kt, cls, z, s, u, P, z0, uc, Pn, Pt, dr, cc)
                 settled, its2, _ = _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0,
-                                              beta, c, cls, z, u, dsh, z0, uc, Pn, kN, Pt,
-                                              tn, dr, cc, R, K, du, ut, hist, False, f_tol, M, b, False)
+                                           beta, c, cls, z, u, dsh, z0, uc, Pn, kN, Pt,
+                                           tn, dr, cc, R, K, du, ut, hist, free, f_tol,
+                                           x_tol, M, b, False)
                 its += its2
             if not settled:
                 _copy_state(cls_b, z_b, s_b, u_b, P_b, cls, z, s, u, P)
@@ -514,4 +546,5 @@ def load() -> None:
     solve_elements(z((1, 6)), np.ones(1), z((n, 6)), z((n, 2, 6)), z(n), np.ones(n), 0.5, True,
                    np.ones(n), z(n), z(n), np.full(n, RELEASED, dtype=np.int8), z((n, 2)),
                    z((n, 2)), z(6), z((n, 3)), z(n), z((1, 6)), z((1, 3 * n)),
-                   z((1, n), dtype=np.int8), z(1, dtype=np.int64), np.ones(1, dtype=bool))
+                   z((1, n), dtype=np.int8), z(1, dtype=np.int64), np.ones(1, dtype=bool),
+                   1e-6)

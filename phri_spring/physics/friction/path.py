@@ -385,8 +385,9 @@ def _solve_compiled(form, kernel, r, state, cache):
     dsh = (state.memo[1].copy() if state.memo is not None and state.memo[1].shape == (n,)
            else np.full(n, -1.0))
 
+    fs, xs = scales(form, np.zeros(6))
     kernel.solve_elements(r, scale, Tn, Tt, dn, kt, form.mu, law_exp, k0, beta, c,
-                          sc, sz, ss, su, sP, dsh, u, P, cls, solves, conv)
+                          sc, sz, ss, su, sP, dsh, u, P, cls, solves, conv, float(xs / fs))
     z = np.zeros((n, 3))
     z[:, 1:3] = sz
     memo = None
