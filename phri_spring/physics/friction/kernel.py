@@ -34,18 +34,12 @@ except ImportError:  # the same loop, interpreted (the tests compare it with the
 
     def _entry(fn):
         return fn
-
-    def _call(fn):
-        return fn
 else:
     NUMBA = True
 
     def _jit(fn):
-        return _njit(error_model="numpy")(fn)
-
-    def _call(fn):
-        # compiled on its own, called from the loop (numba does not inline a function of
-        # this many arguments)
+        # not inline="always": the loop's helpers inlined at every call site took twice
+        # as long to compile for no measurable gain
         return _njit(error_model="numpy")(fn)
 
     def _entry(fn):
@@ -55,7 +49,9 @@ else:
 __all__ = ["NUMBA", "supports", "law_arrays", "solve_elements", "load"]
 
 #: as the event solver (friction/events.py): most Newton steps, steps without halving the
-#: residual before a sample is handed back, a step this long means a mode without stiffness
+#: residual before a sample's iteration gives up, a step this long means a mode without
+#: stiffness. Copied, not imported: numba's cache keys the compiled loop on this file, and
+#: would not see a value changed there
 _MAX_STEPS = 60
 _STALL = 6
 _HUGE_STEP = 0.1
@@ -154,46 +150,31 @@ def _evaluate(u, r, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, z0, dsh,
             g += Tn[e, k] * u[k]
             a0 += Tt[e, 0, k] * u[k]
             a1 += Tt[e, 1, k] * u[k]
-        if block and held[e] == RELEASED:
-            f = 0.0
-            kk = 0.0
-            t0 = 0.0
-            t1 = 0.0
-            tn[e] = 0.0
-            cls[e] = RELEASED
-        elif block:
-            f = 0.0
-            kk = 0.0
+        # tied: in a held state every element not released in it; else one compressed
+        tied = held[e] != RELEASED if block else g > 0.0
+        f = 0.0
+        kk = 0.0
+        t0 = 0.0
+        t1 = 0.0
+        tn[e] = 0.0
+        cls[e] = RELEASED
+        if tied:
             if g > 0.0:
                 f, kk, d = _normal(g, dsh[e], law_exp, k0[e], beta[e], c[e])
                 dsh[e] = d
             t0 = kt[e] * a0
             t1 = kt[e] * a1
-            tn[e] = math.sqrt(t0 * t0 + t1 * t1)
-            cls[e] = STUCK
-        elif g > 0.0:
-            f, kk, d = _normal(g, dsh[e], law_exp, k0[e], beta[e], c[e])
-            dsh[e] = d
-            t0 = kt[e] * a0
-            t1 = kt[e] * a1
             tt = math.sqrt(t0 * t0 + t1 * t1)
             tn[e] = tt
-            if tt > mu * f:
+            cls[e] = STUCK
+            if tt > mu * f and not block:
                 cls[e] = SLIDING
                 dr[e, 0] = t0 / tt
                 dr[e, 1] = t1 / tt
                 t0 = mu * f * dr[e, 0]
                 t1 = mu * f * dr[e, 1]
-            else:
-                cls[e] = STUCK
-        else:
-            f = 0.0
-            kk = 0.0
-            t0 = 0.0
-            t1 = 0.0
-            tn[e] = 0.0
+        elif not block:
             dsh[e] = 0.0
-            cls[e] = RELEASED
         Pn[e] = f
         kN[e] = kk
         Pt[e, 0] = t0
@@ -278,7 +259,7 @@ def _gauss6(M, b, x):
     return True
 
 
-@_call
+@_jit
 def _solve6(K, R, du, M, b):
     """du = -K^-1 R, the event solver's step: where K is singular or the step is longer
     than _HUGE_STEP, the damped least-squares step (K^T K + lam I) du = -K^T R with lam
@@ -319,7 +300,7 @@ def _solve6(K, R, du, M, b):
     return True
 
 
-@_call
+@_jit
 def _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls, z, u, dsh,
             z0, uc, Pn, kN, Pt, tn, dr, cc, R, K, du, ut, hist, held, f_tol, x_tol, M, b,
             from_uc):
@@ -386,7 +367,7 @@ def _newton(ri, tol, Tn, Tt, dn, kt, mu, law_exp, k0, beta, c, cls, z, u, dsh,
     return settled, its, res
 
 
-@_call
+@_jit
 def _commit(Tt, kt, cls, z, s, u, P, z0, uc, Pn, Pt, dr, cc):
     """The state after a settled sample (the return mapping's new ties and slips)."""
     n = Tt.shape[0]
