@@ -199,7 +199,7 @@ _ACTIVE_SETS = True
 
 
 def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: dict | None = None,
-               max_updates: int | None = None, compiled: bool = True):
+               max_updates: int | None = None):
     """Solve wrenches r = W + W_pre (m, 6) in order along the loading path.
 
     Returns
@@ -220,7 +220,7 @@ def solve_path(form: InterfaceForm, r, state: PathState | None = None, cache: di
     n, d = form.n, form.d
     state = initial_state(form) if state is None else state.copy()
     cache = {} if cache is None else cache
-    if compiled and _COMPILED and form.diagonal and form.mu > 0:
+    if _COMPILED and form.diagonal and form.mu > 0:
         kernel = loader.kernel()
         if kernel is not None and kernel.NUMBA and kernel.supports(form):
             return _solve_compiled(form, kernel, r, state, cache)

@@ -16,8 +16,9 @@ the load-cell point, in the load-cell axes, is the rigid-body map
 which is the displacement work-conjugate to the applied wrench (W . u = W_lc . u_lc).
 The curve of axis i is s against u_lc,i, measured from the preloaded state (zero
 wrench); each branch (axis and sign) is loaded from that state, 0 outward, a loading path
-of its own (with friction or lift-off the answer depends on the path). Its slope at s = 0 is 1 / (K^-1)_ii with K the tangent stiffness at the
-load cell (:func:`phri_spring.physics.response.stiffness.stiffness_at_loadcell`): under load
+of its own (with friction or lift-off the answer depends on the path). Its slope at
+s = 0 is 1 / (K^-1)_ii with K the tangent stiffness at the load cell
+(:func:`phri_spring.physics.response.stiffness.stiffness_at_loadcell`): under load
 control the other five components of the load are zero and the other five of the
 motion are free, so the slope is the inverse of the compliance's diagonal, not
 K_ii (which holds the other five motions at zero). This is how Schiebl et al.
