@@ -227,7 +227,9 @@ def _tangent(Tn, Tt, kt, mu, Pn, kN, tn, dr, cls, K):
 @_jit
 def _gauss6(M, b, x):
     """x = M^-1 b by Gaussian elimination with partial pivoting (M and b are overwritten);
-    False where M is singular."""
+    False where M is singular. The history kernel has its own 6 x 6 elimination: sharing
+    one across the two files would leave numba's on-disk cache of either loop stale when
+    the shared one changed (the cache is keyed on the loop's own file)."""
     for col in range(6):
         p = col
         best = abs(M[col, col])
